@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages dispmap builds and tests with.
+# Idempotent and quiet: when every package is present it prints nothing and touches nothing.
+set -euo pipefail
+
+packages=(
+  build-essential cmake ninja-build pkg-config
+  libglm-dev            # vector maths; the only dependency of the header-only kernels
+  libosd-dev            # OpenSubdiv 3.5: Far topology, PtexIndices, Bfr limit evaluation
+  libtinyobjloader-dev  # OBJ reading, including OpenSubdiv's crease/corner/hole tag lines
+  libpng-dev            # 16-bit greyscale height images
+  libcli11-dev          # command-line parsing of the dispmap program
+  catch2                # unit tests (Catch2 v2) under CTest
+  libbenchmark-dev      # Google Benchmark for the figures
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed'; then
+    missing+=("$p")
+  fi
+done
+[ ${#missing[@]} -eq 0 ] && exit 0
+
+echo "setup: installing ${missing[*]}" >&2
+sudo_cmd=()
+[ "$(id -u)" -eq 0 ] || sudo_cmd=(sudo)
+export DEBIAN_FRONTEND=noninteractive
+"${sudo_cmd[@]}" apt-get update -qq
+"${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
