@@ -1,0 +1,230 @@
+#include "figures.h"
+
+#include <benchmark/benchmark.h>
+
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <map>
+#include <random>
+#include <vector>
+
+namespace dispmap::figures {
+
+ControlMesh defaultMesh() {
+    // A box whose top is split into a pentagon and a triangle: valence-3 corners, valence-5
+    // and valence-4 vertices, two non-quad faces (so T-junctions with their quad neighbours).
+    static const char* obj = R"(v -1 -1 -1
+v 1 -1 -1
+v 1 1 -1
+v -1 1 -1
+v -1 -1 1
+v 1 -1 1
+v 1 1 1
+v -1 1 1
+v 0 -1 1
+v 0 1 1
+f 1 4 3 2
+f 1 2 6 9 5
+f 2 3 7 6
+f 3 4 8 10 7
+f 4 1 5 8
+f 5 9 8
+f 9 6 7 10 8
+)";
+    return ControlMesh::fromObjText(obj, "default scene");
+}
+
+double defaultDisplacement(int face, double u, double v) {
+    const double pi = 3.14159265358979323846;
+    return 0.05 * std::sin(2 * pi * 3 * u + face) * std::sin(2 * pi * 2 * v) + 0.02 * std::cos(2 * pi * 9 * (u + v));
+}
+
+void printTileStats(std::ostream& out, const std::string& label, const TileSet& tiles, const BuildReport* r) {
+    std::map<int, int> bySize;
+    std::size_t coeffs = 0;
+    for (const Tile& t : tiles.tiles) {
+        ++bySize[t.size()];
+        coeffs += t.coefficients.size();
+    }
+    const PackedTiles p = tiles.pack();
+    out << label << "\n  tiles: " << tiles.tileCount() << " (";
+    bool first = true;
+    for (auto [s, n] : bySize) {
+        out << (first ? "" : ", ") << n << " x " << s << "^2";
+        first = false;
+    }
+    out << "), mip filter " << toString(tiles.filter) << "\n  coefficients (all levels, overlap included): " << coeffs
+        << "\n  packed texture: " << p.width << " x " << p.height << " texels, " << p.usedTexels
+        << " in tile footprints (paper's (1.5s+4)(s+2) per tile: " << p.paperTexels << "), "
+        << std::fixed << std::setprecision(1) << 100.0 * double(p.usedTexels) / double(p.width * p.height)
+        << " % used, " << double(p.texels.size() * 4 + p.records.size() * 16) / 1024.0 << " KiB as float32 + records\n";
+    if (r)
+        out << std::scientific << std::setprecision(2) << "  fit: " << r->sweeps << " sweeps, last change "
+            << r->lastChange << ", max interpolation residual " << r->maxResidual << " (away from constrained corners "
+            << r->maxResidualAwayFromConstraints << ")\n  constrained (extraordinary) vertices: "
+            << r->constrainedVertices << ", quad/sub-face T-junctions: " << r->tJunctions << "\n";
+    out << std::defaultfloat;
+}
+
+namespace {
+// A torus of quads carrying a band-limited random displacement: the reference for the mip
+// table (no constrained corners, so the levels differ only by the filter).
+struct MipScene {
+    ControlMesh mesh;
+    std::vector<int> k;
+    DisplacementFunction source;
+};
+MipScene mipScene() {
+    std::string obj;
+    const int n = 6, m = 4;
+    for (int j = 0; j < m; ++j)
+        for (int i = 0; i < n; ++i)
+            obj += "v " + std::to_string(std::cos(6.283185307 * i / n) * (2 + std::cos(6.283185307 * j / m))) + " " +
+                   std::to_string(std::sin(6.283185307 * i / n) * (2 + std::cos(6.283185307 * j / m))) + " " +
+                   std::to_string(std::sin(6.283185307 * j / m)) + "\n";
+    for (int j = 0; j < m; ++j)
+        for (int i = 0; i < n; ++i) {
+            auto id = [&](int a, int b) { return std::to_string((b % m) * n + (a % n) + 1); };
+            obj += "f " + id(i, j) + " " + id(i + 1, j) + " " + id(i + 1, j + 1) + " " + id(i, j + 1) + "\n";
+        }
+    ControlMesh mesh = ControlMesh::fromObjText(obj, "mip torus");
+    std::vector<int> k = uniformTileSizes(mesh, 6);
+    // Periodic over the torus: frequencies in cycles per face, 1..24 (the finest level has 64
+    // texels per face, so content up to its Nyquist limit of 32).
+    auto source = [n, m](int face, double u, double v) {
+        const double x = (face % n + u) / n, y = (face / n + v) / m, tau = 6.283185307179586;
+        double d = 0;
+        const int fx[] = {1, 2, 4, 8, 16, 24}, fy[] = {1, 3, 4, 6, 12, 20};
+        for (int i = 0; i < 6; ++i) d += std::sin(tau * (fx[i] * n * x + 0.3 * i)) * std::cos(tau * (fy[i] * m * y)) / (1 + i);
+        return d;
+    };
+    return {std::move(mesh), std::move(k), source};
+}
+} // namespace
+
+void printMipTable(std::ostream& out, const std::string& csvPath) {
+    MipScene sc = mipScene();
+    std::ofstream csv;
+    if (!csvPath.empty()) {
+        csv.open(csvPath);
+        if (!csv) throw FileError(csvPath + ": cannot write");
+        csv << "filter,level,size,rel_rms_error,rel_max_error,build_ms\n";
+    }
+    out << "Mip pyramids, Haar vs quadratic B-wavelet (torus of 24 tiles, 64^2 each, band-limited data):\n"
+        << "  error of level m against the finest level, relative to the finest level's RMS; build = whole tile set\n"
+        << "  filter     build ms   level  size   rel RMS err   rel max err\n";
+    for (MipFilter f : {MipFilter::Haar, MipFilter::BWavelet}) {
+        BuildOptions o;
+        o.filter = f;
+        // Best of 3 builds; the fit dominates and is the same for both filters.
+        double best = 1e300;
+        TileSet ts;
+        for (int rep = 0; rep < 3; ++rep) {
+            auto t0 = std::chrono::steady_clock::now();
+            ts = buildTiles(sc.mesh, sc.k, sc.source, o);
+            best = std::min(best, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+        }
+        const int levels = ts.tiles[0].k;
+        double refRms = 0;
+        const int N = 128; // samples per face side
+        for (std::size_t t = 0; t < ts.tiles.size(); ++t)
+            for (int j = 0; j < N; ++j)
+                for (int i = 0; i < N; ++i) {
+                    const double d = ts.evaluate(int(t), 0, glm::dvec2((i + 0.5) / N, (j + 0.5) / N));
+                    refRms += d * d;
+                }
+        refRms = std::sqrt(refRms / double(ts.tiles.size() * N * N));
+        for (int m = 1; m < levels; ++m) {
+            double se = 0, mx = 0;
+            for (std::size_t t = 0; t < ts.tiles.size(); ++t)
+                for (int j = 0; j < N; ++j)
+                    for (int i = 0; i < N; ++i) {
+                        const glm::dvec2 p((i + 0.5) / N, (j + 0.5) / N);
+                        const double e = ts.evaluate(int(t), m, p) - ts.evaluate(int(t), 0, p);
+                        se += e * e;
+                        mx = std::max(mx, std::abs(e));
+                    }
+            const double rms = std::sqrt(se / double(ts.tiles.size() * N * N)) / refRms;
+            out << "  " << std::left << std::setw(9) << toString(f) << std::right << std::fixed << std::setprecision(1)
+                << std::setw(10) << (m == 1 ? best : 0.0) << std::setw(8) << m << std::setw(6) << (64 >> m)
+                << std::scientific << std::setprecision(3) << std::setw(14) << rms << std::setw(14) << mx / refRms
+                << std::defaultfloat << "\n";
+            if (csv) csv << toString(f) << "," << m << "," << (64 >> m) << "," << rms << "," << mx / refRms << "," << best << "\n";
+        }
+    }
+}
+
+// ---- Google Benchmark timings ----
+namespace {
+template <typename real> void BM_Biquadratic(benchmark::State& state) {
+    std::mt19937 rng(1);
+    std::uniform_real_distribution<double> U(0, 1);
+    std::vector<glm::mat<3, 3, real>> c(1024);
+    std::vector<glm::vec<2, real>> t(1024);
+    for (std::size_t i = 0; i < c.size(); ++i) {
+        for (int a = 0; a < 3; ++a)
+            for (int b = 0; b < 3; ++b) c[i][a][b] = static_cast<real>(U(rng));
+        t[i] = glm::vec<2, real>(static_cast<real>(U(rng)), static_cast<real>(U(rng)));
+    }
+    std::size_t i = 0;
+    const bool derivs = state.range(0) != 0;
+    for (auto _ : state) {
+        if (derivs)
+            benchmark::DoNotOptimize(kern::dmBiquadraticD1(c[i & 1023], t[i & 1023]));
+        else
+            benchmark::DoNotOptimize(kern::dmBiquadratic(c[i & 1023], t[i & 1023]));
+        ++i;
+    }
+    state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations()));
+}
+BENCHMARK(BM_Biquadratic<float>)->Arg(0)->Arg(1)->ArgName("derivs");
+BENCHMARK(BM_Biquadratic<double>)->Arg(0)->Arg(1)->ArgName("derivs");
+
+// Whole evaluation from a TileSet: locate the sub-patch, gather 9 coefficients, evaluate.
+template <typename real> void BM_TileEvaluate(benchmark::State& state) {
+    static const TileSet ts = buildTiles(defaultMesh(), uniformTileSizes(defaultMesh(), 5), defaultDisplacement);
+    std::mt19937 rng(2);
+    std::uniform_real_distribution<double> U(0, 1);
+    std::vector<glm::vec<2, real>> p(1024);
+    for (auto& x : p) x = glm::vec<2, real>(static_cast<real>(U(rng)), static_cast<real>(U(rng)));
+    std::size_t i = 0;
+    for (auto _ : state) {
+        benchmark::DoNotOptimize(ts.evaluateD1(int(i % std::size_t(ts.tileCount())), 0, p[i & 1023]));
+        ++i;
+    }
+    state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations()));
+}
+BENCHMARK(BM_TileEvaluate<float>);
+BENCHMARK(BM_TileEvaluate<double>);
+
+// Fit + mips for the default mesh: throughput in samples (texels of the finest levels).
+void BM_BuildTiles(benchmark::State& state) {
+    const ControlMesh mesh = defaultMesh();
+    const std::vector<int> k = uniformTileSizes(mesh, static_cast<int>(state.range(0)));
+    BuildOptions o;
+    o.filter = state.range(1) ? MipFilter::BWavelet : MipFilter::Haar;
+    std::int64_t samples = 0;
+    for (int kk : k) samples += std::int64_t(1) << (2 * kk);
+    for (auto _ : state) benchmark::DoNotOptimize(buildTiles(mesh, k, defaultDisplacement, o));
+    state.SetItemsProcessed(state.iterations() * samples);
+}
+BENCHMARK(BM_BuildTiles)->ArgsProduct({{4, 6}, {0, 1}})->ArgNames({"k", "bwavelet"})->Unit(benchmark::kMillisecond);
+
+void BM_Pack(benchmark::State& state) {
+    static const TileSet ts = buildTiles(defaultMesh(), uniformTileSizes(defaultMesh(), 6), defaultDisplacement);
+    for (auto _ : state) benchmark::DoNotOptimize(ts.pack());
+}
+BENCHMARK(BM_Pack)->Unit(benchmark::kMillisecond);
+} // namespace
+
+int runBenchmarks(int argc, char** argv) {
+    benchmark::Initialize(&argc, argv);
+    if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 2;
+    benchmark::RunSpecifiedBenchmarks();
+    benchmark::Shutdown();
+    return 0;
+}
+
+} // namespace dispmap::figures

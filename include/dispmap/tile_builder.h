@@ -62,7 +62,7 @@ struct BuildReport {
     int sweeps = 0;              ///< fit sweeps run
     double lastChange = 0;       ///< largest coefficient change in the last sweep
     double maxResidual = 0;      ///< max |D(sample) - sample| over all samples (double coefficients)
-    double maxResidualAwayFromConstraints = 0; ///< same, excluding sub-patches touching a constrained corner
+    double maxResidualAwayFromConstraints = 0; ///< same, excluding samples whose stencil reads a constrained corner block
     int constrainedVertices = 0; ///< vertices with the Doo-Sabin corner constraint
     int tJunctions = 0;          ///< quad/sub-face T-junctions
 };
@@ -561,8 +561,10 @@ inline TileSet buildTiles(const ControlMesh& mesh, const std::vector<int>& k, co
                 rep.maxResidual = std::max(rep.maxResidual, r);
                 bool nearConstraint = false;
                 for (int c = 0; c < 4; ++c) {
-                    const int ci = (c == 1 || c == 2) ? s - 1 : 0, cj = (c >= 2) ? s - 1 : 0;
-                    if (i == ci && j == cj &&
+                    // samples whose 3 x 3 stencil reads the corner's 2 x 2 block
+                    const bool ni = (c == 1 || c == 2) ? i >= s - 2 : i <= 1;
+                    const bool nj = (c >= 2) ? j >= s - 2 : j <= 1;
+                    if (ni && nj &&
                         topo.kind(topo.cornerVertex(t, c)) == TileTopology::VertexKind::Constrained)
                         nearConstraint = true;
                 }

@@ -1,0 +1,20 @@
+#pragma once
+// Figures printed by `dispmap demo` and `dispmap bench`: tile statistics, the mip accuracy
+// table, and the Google Benchmark timings registered in figures.cpp.
+#include <ostream>
+#include <string>
+
+#include "dispmap/tile_builder.h"
+
+namespace dispmap::figures {
+/// The embedded default scene: a cage with extraordinary vertices of valence 3 and 5, a
+/// triangle and a pentagon, and a procedural displacement (no files needed).
+ControlMesh defaultMesh();
+double defaultDisplacement(int face, double u, double v);
+void printTileStats(std::ostream& out, const std::string& label, const TileSet& tiles, const BuildReport* report);
+/// For Haar and B-wavelet mips: error of each level against the finest level, next to the
+/// pyramid build time. Also writes `csvPath` if not empty.
+void printMipTable(std::ostream& out, const std::string& csvPath);
+/// Runs the registered benchmarks (args as Google Benchmark's command line).
+int runBenchmarks(int argc, char** argv);
+} // namespace dispmap::figures
