@@ -105,7 +105,7 @@ inline std::uint64_t topologyHash(const ControlMesh& mesh) {
 /// interpolated bilinearly over each Ptex face from the face's texture coordinates (for a
 /// sub-face: corner, edge midpoints, centroid). Throws ArgumentError if the mesh has no
 /// texture coordinates, the image is empty, scale/offset are not finite, or (without wrap)
-/// a texture coordinate lies outside [0, 1].
+/// a texture coordinate lies more than half a texel outside [0, 1].
 inline DisplacementFunction imageSource(const ControlMesh& mesh, std::shared_ptr<const HeightImage> image,
                                         double scale, double offset, bool wrap = false) {
     const std::string& name = mesh.description().name;
@@ -126,7 +126,10 @@ inline DisplacementFunction imageSource(const ControlMesh& mesh, std::shared_ptr
         for (int j = 0; j < n; ++j) {
             uv[static_cast<std::size_t>(j)] = d.uvs[static_cast<std::size_t>(d.faceUVs[static_cast<std::size_t>(at + j)])];
             const glm::dvec2& t = uv[static_cast<std::size_t>(j)];
-            if (!wrap && (t.x < -1e-9 || t.x > 1.0 + 1e-9 || t.y < -1e-9 || t.y > 1.0 + 1e-9))
+            // Within half a texel outside [0, 1] the clamped lookup reads the border texel
+            // anyway (real UV layouts, e.g. Spot's, overshoot by a fraction of a texel).
+            const double sx = 0.5 / image->width, sy = 0.5 / image->height;
+            if (!wrap && (t.x < -sx || t.x > 1.0 + sx || t.y < -sy || t.y > 1.0 + sy))
                 throw ArgumentError(name + ": face " + std::to_string(f + 1) + " has texture coordinate (" +
                                     std::to_string(t.x) + ", " + std::to_string(t.y) +
                                     ") outside the image; enable wrapping or fix the mesh");
