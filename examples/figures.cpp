@@ -76,7 +76,7 @@ struct MipScene {
     std::vector<int> k;
     DisplacementFunction source;
 };
-MipScene mipScene() {
+MipScene mipScene(bool smooth) {
     std::string obj;
     const int n = 6, m = 4;
     for (int j = 0; j < m; ++j)
@@ -93,11 +93,12 @@ MipScene mipScene() {
     std::vector<int> k = uniformTileSizes(mesh, 6);
     // Periodic over the torus: frequencies in cycles per face, 1..24 (the finest level has 64
     // texels per face, so content up to its Nyquist limit of 32).
-    auto source = [n, m](int face, double u, double v) {
+    auto source = [n, m, smooth](int face, double u, double v) {
         const double x = (face % n + u) / n, y = (face / n + v) / m, tau = 6.283185307179586;
         double d = 0;
         const int fx[] = {1, 2, 4, 8, 16, 24}, fy[] = {1, 3, 4, 6, 12, 20};
-        for (int i = 0; i < 6; ++i) d += std::sin(tau * (fx[i] * n * x + 0.3 * i)) * std::cos(tau * (fy[i] * m * y)) / (1 + i);
+        for (int i = 0; i < (smooth ? 2 : 6); ++i)
+            d += std::sin(tau * (fx[i] * n * x + 0.3 * i)) * std::cos(tau * (fy[i] * m * y)) / (1 + i);
         return d;
     };
     return {std::move(mesh), std::move(k), source};
@@ -105,53 +106,61 @@ MipScene mipScene() {
 } // namespace
 
 void printMipTable(std::ostream& out, const std::string& csvPath) {
-    MipScene sc = mipScene();
     std::ofstream csv;
     if (!csvPath.empty()) {
         csv.open(csvPath);
         if (!csv) throw FileError(csvPath + ": cannot write");
-        csv << "filter,level,size,rel_rms_error,rel_max_error,build_ms\n";
+        csv << "data,filter,level,size,rel_rms_error,rel_max_error,build_ms\n";
     }
-    out << "Mip pyramids, Haar vs quadratic B-wavelet (torus of 24 tiles, 64^2 each, band-limited data):\n"
-        << "  error of level m against the finest level, relative to the finest level's RMS; build = whole tile set\n"
-        << "  filter     build ms   level  size   rel RMS err   rel max err\n";
-    for (MipFilter f : {MipFilter::Haar, MipFilter::BWavelet}) {
-        BuildOptions o;
-        o.filter = f;
-        // Best of 3 builds; the fit dominates and is the same for both filters.
-        double best = 1e300;
-        TileSet ts;
-        for (int rep = 0; rep < 3; ++rep) {
-            auto t0 = std::chrono::steady_clock::now();
-            ts = buildTiles(sc.mesh, sc.k, sc.source, o);
-            best = std::min(best, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-        }
-        const int levels = ts.tiles[0].k;
-        double refRms = 0;
-        const int N = 128; // samples per face side
-        for (std::size_t t = 0; t < ts.tiles.size(); ++t)
-            for (int j = 0; j < N; ++j)
-                for (int i = 0; i < N; ++i) {
-                    const double d = ts.evaluate(int(t), 0, glm::dvec2((i + 0.5) / N, (j + 0.5) / N));
-                    refRms += d * d;
-                }
-        refRms = std::sqrt(refRms / double(ts.tiles.size() * N * N));
-        for (int m = 1; m < levels; ++m) {
-            double se = 0, mx = 0;
+    out << "Mip pyramids, Haar vs quadratic B-wavelet (torus of 24 tiles, 64^2 each):\n"
+        << "  error of level m against the finest level (relative to its RMS), 128^2 samples per tile;\n"
+        << "  build = fit + all mips of the whole set, best of 3 (ms)\n"
+        << "  data    filter    build ms  level  size   rel RMS err   rel max err\n";
+    for (bool smooth : {true, false}) {
+        MipScene sc = mipScene(smooth);
+        const char* data = smooth ? "smooth" : "rough";
+        for (MipFilter f : {MipFilter::Haar, MipFilter::BWavelet}) {
+            BuildOptions o;
+            o.filter = f;
+            double best = 1e300;
+            TileSet ts;
+            for (int rep = 0; rep < 3; ++rep) {
+                auto t0 = std::chrono::steady_clock::now();
+                ts = buildTiles(sc.mesh, sc.k, sc.source, o);
+                best = std::min(best, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+            }
+            const int levels = ts.tiles[0].k;
+            const int N = 128; // samples per face side
+            double refRms = 0;
             for (std::size_t t = 0; t < ts.tiles.size(); ++t)
                 for (int j = 0; j < N; ++j)
                     for (int i = 0; i < N; ++i) {
-                        const glm::dvec2 p((i + 0.5) / N, (j + 0.5) / N);
-                        const double e = ts.evaluate(int(t), m, p) - ts.evaluate(int(t), 0, p);
-                        se += e * e;
-                        mx = std::max(mx, std::abs(e));
+                        const double d = ts.evaluate(int(t), 0, glm::dvec2((i + 0.5) / N, (j + 0.5) / N));
+                        refRms += d * d;
                     }
-            const double rms = std::sqrt(se / double(ts.tiles.size() * N * N)) / refRms;
-            out << "  " << std::left << std::setw(9) << toString(f) << std::right << std::fixed << std::setprecision(1)
-                << std::setw(10) << (m == 1 ? best : 0.0) << std::setw(8) << m << std::setw(6) << (64 >> m)
-                << std::scientific << std::setprecision(3) << std::setw(14) << rms << std::setw(14) << mx / refRms
-                << std::defaultfloat << "\n";
-            if (csv) csv << toString(f) << "," << m << "," << (64 >> m) << "," << rms << "," << mx / refRms << "," << best << "\n";
+            refRms = std::sqrt(refRms / double(ts.tiles.size() * N * N));
+            for (int m = 1; m < levels; ++m) {
+                double se = 0, mx = 0;
+                for (std::size_t t = 0; t < ts.tiles.size(); ++t)
+                    for (int j = 0; j < N; ++j)
+                        for (int i = 0; i < N; ++i) {
+                            const glm::dvec2 p((i + 0.5) / N, (j + 0.5) / N);
+                            const double e = ts.evaluate(int(t), m, p) - ts.evaluate(int(t), 0, p);
+                            se += e * e;
+                            mx = std::max(mx, std::abs(e));
+                        }
+                const double rms = std::sqrt(se / double(ts.tiles.size() * N * N)) / refRms;
+                out << "  " << std::left << std::setw(8) << data << std::setw(9) << toString(f) << std::right;
+                if (m == 1)
+                    out << std::fixed << std::setprecision(1) << std::setw(9) << best;
+                else
+                    out << std::setw(9) << "";
+                out << std::setw(7) << m << std::setw(6) << (64 >> m) << std::scientific << std::setprecision(3)
+                    << std::setw(14) << rms << std::setw(14) << mx / refRms << std::defaultfloat << "\n";
+                if (csv)
+                    csv << data << "," << toString(f) << "," << m << "," << (64 >> m) << "," << rms << "," << mx / refRms
+                        << "," << best << "\n";
+            }
         }
     }
 }

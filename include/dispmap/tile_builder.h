@@ -493,7 +493,7 @@ inline TileSet buildTiles(const ControlMesh& mesh, const std::vector<int>& k, co
         const int g = gmin[static_cast<std::size_t>(v)];
         bool ok = quad >= 0 && ku(quad) == g;
         for (int qc = 0; ok && qc < 4; ++qc)
-            if (topo.linkAt(quad, qc, 0.5) && topo.linkAt(quad, qc, 0.5)->tile == t)
+            if (const TileTopology::Link* ql = topo.linkAt(quad, qc, 0.25); ql && ql->tile == t)
                 ok = gmin[static_cast<std::size_t>(topo.cornerVertex(quad, qc))] == g &&
                      gmin[static_cast<std::size_t>(topo.cornerVertex(quad, (qc + 1) & 3))] == g;
         for (auto [st, sc] : topo.incidences(v)) ok = ok && ku(st) + 1 == g;
