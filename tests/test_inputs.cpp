@@ -7,6 +7,7 @@
 
 #include "dispmap/height_image.h"
 #include "dispmap/tile_builder.h"
+#include "test_files.h"
 #include "test_support.h"
 
 using namespace dispmap;
@@ -75,9 +76,8 @@ TEST_CASE("a height image on a mesh without texture coordinates, or outside the 
 TEST_CASE("16-bit height image -> tiles: the fit interpolates the image samples", "[inputs][image]") {
     // Write a 16-bit image, read it back, map it on a grid with UVs; on a quad grid with no
     // extraordinary vertex every sample is interpolated (to double rounding).
-    const auto dir = std::filesystem::temp_directory_path() / "dispmap_test_image";
-    std::filesystem::create_directories(dir);
-    const std::string path = (dir / "ramp.png").string();
+    const dmtest::TempDir dir("dispmap_inputs_test_");
+    const std::string path = dir.file("ramp.png");
     HeightImage src;
     src.width = 256;
     src.height = 128;
@@ -86,7 +86,6 @@ TEST_CASE("16-bit height image -> tiles: the fit interpolates the image samples"
             src.values.push_back(float(std::round(65535.0 * (0.5 + 0.5 * std::sin(x * 0.05) * std::cos(y * 0.07))) / 65535.0));
     writeHeightPng16(path, src);
     auto img = std::make_shared<HeightImage>(readHeightPng(path));
-    std::filesystem::remove_all(dir);
     ControlMesh grid = ControlMesh::fromObjText(dmtest::gridObj(4, 3), "grid");
     const DisplacementFunction source = imageSource(grid, img, 0.2, -0.1);
     BuildReport rep;

@@ -2,6 +2,8 @@
 // tile set rejected with the right exception, without leaving partial files behind.
 #include <catch2/catch.hpp>
 
+#include "test_files.h"
+
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -25,44 +27,14 @@ using dispmap::MipFilter;
 using dispmap::Tile;
 using dispmap::TileSet;
 
-namespace {
-
-// A fresh, uniquely named directory under the system temporary directory, removed with
-// everything in it when the object goes.
-struct TempDir {
-    fs::path path;
-    TempDir() {
-        std::random_device rd;
-        path = fs::temp_directory_path() /
-               ("dispmap_tile_file_test_" + std::to_string(rd()) + "_" + std::to_string(rd()));
-        fs::create_directories(path);
-    }
-    ~TempDir() {
-        std::error_code ec;
-        fs::remove_all(path, ec);
-    }
-    TempDir(const TempDir&) = delete;
-    TempDir& operator=(const TempDir&) = delete;
-    std::string file(const std::string& name) const { return (path / name).string(); }
-    // Names of the entries in the directory.
-    std::set<std::string> entries() const {
-        std::set<std::string> names;
-        for (const auto& e : fs::directory_iterator(path))
-            names.insert(e.path().filename().string());
-        return names;
-    }
+using dmtest::readBytes;
+using dmtest::writeBytes;
+struct TempDir : dmtest::TempDir {
+    TempDir() : dmtest::TempDir("dispmap_tile_file_test_") {}
 };
 
-std::vector<unsigned char> readBytes(const std::string& path) {
-    std::ifstream f(path, std::ios::binary);
-    return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
-}
+namespace {
 
-void writeBytes(const std::string& path, const std::vector<unsigned char>& bytes) {
-    std::ofstream f(path, std::ios::binary | std::ios::trunc);
-    f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
-    REQUIRE(f.good());
-}
 
 // Recomputes the trailing CRC-32 after a deliberate edit, so that the loader's other checks
 // are reached.

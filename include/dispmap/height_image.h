@@ -27,7 +27,7 @@
 #include <png.h>
 
 #include "dispmap/error.h"
-#include "dispmap/tile_file.h" // detail::readFileBytes, detail::writeFileAtomically
+#include "dispmap/file_io.h" // detail::readFileBytes, detail::writeFileAtomically
 
 namespace dispmap {
 

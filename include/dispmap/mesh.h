@@ -17,6 +17,7 @@
 #include <tiny_obj_loader.h>
 
 #include "dispmap/error.h"
+#include "dispmap/file_io.h"
 
 namespace dispmap {
 namespace Far = OpenSubdiv::Far;
@@ -245,16 +246,8 @@ inline void ControlMesh::build() {
 }
 
 inline ControlMesh ControlMesh::fromObjFile(const std::string& path) {
-    std::FILE* f = std::fopen(path.c_str(), "rb");
-    if (!f) throw FileError(path + ": cannot open mesh file");
-    std::string text;
-    char buf[65536];
-    std::size_t got;
-    while ((got = std::fread(buf, 1, sizeof buf, f)) > 0) text.append(buf, got);
-    const bool failed = std::ferror(f) != 0;
-    std::fclose(f);
-    if (failed) throw FileError(path + ": read error");
-    return fromObjText(text, path);
+    const std::vector<unsigned char> bytes = detail::readFileBytes(path, "mesh file");
+    return fromObjText(std::string(bytes.begin(), bytes.end()), path);
 }
 
 } // namespace dispmap
