@@ -26,7 +26,11 @@
 //    the Doo-Sabin corner constraint of §4.2: every incident tile's interior corner is set
 //    to their average, and its 2 x 2 corner block to that value, so D_u = D_v = 0 there;
 //  * the T-junction where a quad edge meets two sub-faces of an N-gon: the sub-face's ring
-//    continues along the quad's row past the edge midpoint.
+//    continues along the quad's row past the edge midpoint; where the quad's coarsest level
+//    (s = 2) meets the sub-face, the sub-face provides a virtual s = 1 level (never stored);
+//  * mixed sizes at a regular vertex whose diagonal tile lacks the level: every tile that
+//    has it uses the parallelogram rule (the two edge neighbours minus the diagonal), so they
+//    all agree on the missing quadrant's texel.
 //  * creases: D ignores them. It stays C1 across a crease in the face parameters; the
 //    displaced surface keeps the base surface's crease through N_s.
 // Mixed sizes (§4.4): levels are processed from the finest resolution to the coarsest, so
