@@ -178,13 +178,15 @@ Continuity measureContinuity(const ControlMesh& mesh, const TileSet& ts) {
 } // namespace
 
 TEST_CASE("D is C0 and C1 across every tile edge at every level", "[continuity]") {
-    // Meshes: valence 3 (cube), 8 (pole8), 5 and 6 (toroidal_tet, xord_boundary), triangles
+    // Meshes: valence 3 (cube), 8 (pole8), 5 and 6 (toroidal_tet, xord_boundary), up to 24
+    // with triangles and semi-sharp creases (bishop), triangles
     // and pentagons (nonquads, gregory_test2, Spot), boundaries and corners (edgecorner,
     // flap, quadstrips), creases (cube_creases0, tent_creases0), holes (hole_test1), darts.
     const char* shapes[] = {"catmark_cube", "catmark_pole8", "catmark_toroidal_tet", "catmark_xord_boundary",
                             "catmark_nonquads", "catmark_gregory_test2", "spot_control_mesh", "catmark_edgecorner",
                             "catmark_flap", "catmark_quadstrips", "catmark_cube_creases0",
-                            "catmark_tent_creases0", "catmark_hole_test1", "catmark_dart_edgecorner", "catmark_pyramid"};
+                            "catmark_tent_creases0", "catmark_hole_test1", "catmark_dart_edgecorner", "catmark_pyramid",
+                            "catmark_bishop"};
     for (const char* name : shapes)
         for (MipFilter filter : {MipFilter::Haar, MipFilter::BWavelet}) {
             ControlMesh mesh = dmtest::shape(name);
