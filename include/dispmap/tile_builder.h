@@ -163,8 +163,7 @@ namespace detail {
 /// The working state of a build: every level of every tile in double precision.
 class TileBuild {
   public:
-    TileBuild(const ControlMesh& mesh, const TileTopology& topo, std::vector<int> k)
-        : mesh_(mesh), topo_(topo), k_(std::move(k)) {
+    TileBuild(const TileTopology& topo, std::vector<int> k) : topo_(topo), k_(std::move(k)) {
         const int n = topo.tileCount();
         data_.resize(static_cast<std::size_t>(n));
         fit_.resize(static_cast<std::size_t>(n));
@@ -449,7 +448,6 @@ class TileBuild {
     const std::vector<std::vector<double>>& level(int t) const { return data_[u(t)]; }
 
   private:
-    const ControlMesh& mesh_;
     const TileTopology& topo_;
     std::vector<int> k_;
     std::vector<std::vector<std::vector<double>>> data_;
@@ -496,10 +494,11 @@ inline TileSet buildTiles(const ControlMesh& mesh, const std::vector<int>& k, co
         const int quad = l ? l->tile : -1;
         const int g = gmin[static_cast<std::size_t>(v)];
         bool ok = quad >= 0 && ku(quad) == g;
-        for (int qc = 0; ok && qc < 4; ++qc)
-            if (const TileTopology::Link* ql = topo.linkAt(quad, qc, 0.25); ql && ql->tile == t)
-                ok = gmin[static_cast<std::size_t>(topo.cornerVertex(quad, qc))] == g &&
-                     gmin[static_cast<std::size_t>(topo.cornerVertex(quad, (qc + 1) & 3))] == g;
+        for (int qc = 0; ok && quad >= 0 && qc < 4; ++qc)
+            for (const TileTopology::Link& ql : topo.links(quad, qc))
+                if (ql.tile == t)
+                    ok = ok && gmin[static_cast<std::size_t>(topo.cornerVertex(quad, qc))] == g &&
+                         gmin[static_cast<std::size_t>(topo.cornerVertex(quad, (qc + 1) & 3))] == g;
         for (auto [st, sc] : topo.incidences(v)) ok = ok && ku(st) + 1 == g;
         if (!ok)
             throw ArgumentError(name + ": tile sizes at the T-junction between face " +
@@ -529,7 +528,7 @@ inline TileSet buildTiles(const ControlMesh& mesh, const std::vector<int>& k, co
             }
     }
 
-    detail::TileBuild b(mesh, topo, k);
+    detail::TileBuild b(topo, k);
     for (int t = 0; t < n; ++t) {
         const int s = 1 << ku(t);
         for (int j = 0; j < s; ++j)
