@@ -24,11 +24,9 @@ int demo(bool quick) {
     std::cout << "\n";
     figures::printMipTable(std::cout, "");
     std::cout << "\nTimings (Google Benchmark" << (quick ? ", short runs" : "") << "):\n" << std::flush;
-    std::vector<std::string> args = {"dispmap"};
-    if (quick) args.push_back("--benchmark_min_time=0.05");
-    std::vector<char*> argv;
-    for (auto& a : args) argv.push_back(a.data());
-    return figures::runBenchmarks(static_cast<int>(argv.size()), argv.data());
+    std::vector<std::string> flags;
+    if (quick) flags.push_back("--benchmark_min_time=0.05");
+    return figures::runBenchmarks(flags);
 }
 
 struct TilesArgs {
@@ -109,12 +107,7 @@ int main(int argc, char** argv) {
         if (*tilesCmd) return tiles(ta);
         if (*benchCmd) {
             figures::printMipTable(std::cout, csv);
-            std::vector<std::string> extras = benchCmd->remaining();
-            std::vector<std::string> args = {"dispmap"};
-            args.insert(args.end(), extras.begin(), extras.end());
-            std::vector<char*> av;
-            for (auto& s : args) av.push_back(s.data());
-            return figures::runBenchmarks(static_cast<int>(av.size()), av.data());
+            return figures::runBenchmarks(benchCmd->remaining());
         }
     } catch (const dispmap::Error& e) {
         std::cerr << "dispmap: " << e.what() << "\n";

@@ -228,9 +228,14 @@ void BM_Pack(benchmark::State& state) {
 BENCHMARK(BM_Pack)->Unit(benchmark::kMillisecond);
 } // namespace
 
-int runBenchmarks(int argc, char** argv) {
-    benchmark::Initialize(&argc, argv);
-    if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 2;
+int runBenchmarks(const std::vector<std::string>& flags) {
+    std::vector<std::string> args = {"dispmap"};
+    args.insert(args.end(), flags.begin(), flags.end());
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    int argc = static_cast<int>(argv.size());
+    benchmark::Initialize(&argc, argv.data());
+    if (benchmark::ReportUnrecognizedArguments(argc, argv.data())) return 2;
     benchmark::RunSpecifiedBenchmarks();
     benchmark::Shutdown();
     return 0;

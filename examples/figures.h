@@ -3,6 +3,7 @@
 // table, and the Google Benchmark timings registered in figures.cpp.
 #include <ostream>
 #include <string>
+#include <vector>
 
 #include "dispmap/tile_builder.h"
 
@@ -15,6 +16,6 @@ void printTileStats(std::ostream& out, const std::string& label, const TileSet& 
 /// For Haar and B-wavelet mips: error of each level against the finest level, next to the
 /// pyramid build time. Also writes `csvPath` if not empty.
 void printMipTable(std::ostream& out, const std::string& csvPath);
-/// Runs the registered benchmarks (args as Google Benchmark's command line).
-int runBenchmarks(int argc, char** argv);
+/// Runs the registered benchmarks with Google Benchmark's flags (e.g. --benchmark_filter=...).
+int runBenchmarks(const std::vector<std::string>& flags);
 } // namespace dispmap::figures

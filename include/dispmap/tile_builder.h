@@ -178,18 +178,18 @@ class TileBuild {
     int size(int t, int m) const { return (1 << k_[u(t)]) >> m; }
     /// The global resolution of level m: log2 of its texels per base edge.
     int global(int t, int m) const { return k_[u(t)] - m + topo_.scale(t); }
-    /// The level of tile t at global resolution g, or -1.
-    int levelAt(int t, int g) const {
-        const int m = k_[u(t)] + topo_.scale(t) - g;
-        return (m >= 0 && m < k_[u(t)]) ? m : -1;
-    }
-    /// Like levelAt, but also the virtual level m = k of size 1: never stored or evaluated, it
-    /// is the mip of the coarsest level and feeds the neighbours' rings where a quad's coarsest
-    /// level meets a sub-face at a T-junction (there the sub-face needs size 1), so that every
-    /// tile that reads that region of the sub-face reads the same value.
+    /// The level of tile t at global resolution g, or -1; sourceLevelAt also returns the
+    /// virtual level m = k of size 1: never stored or evaluated, it is the mip of the coarsest
+    /// level and feeds the neighbours' rings where a quad's coarsest level meets a sub-face at
+    /// a T-junction (there the sub-face needs size 1), so that every tile that reads that
+    /// region of the sub-face reads the same value.
     int sourceLevelAt(int t, int g) const {
         const int m = k_[u(t)] + topo_.scale(t) - g;
         return (m >= 0 && m <= k_[u(t)]) ? m : -1;
+    }
+    int levelAt(int t, int g) const {
+        const int m = sourceLevelAt(t, g);
+        return m < k_[u(t)] ? m : -1;
     }
     double& at(int t, int m, int a, int b) { return data_[u(t)][u(m)][u(b * (size(t, m) + 2) + a)]; }
     double& fitAt(int t, int a, int b) { return fit_[u(t)][u(b * (size(t, 0) + 2) + a)]; }

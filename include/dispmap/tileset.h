@@ -102,14 +102,16 @@ class TileSet {
 
     int tileCount() const { return static_cast<int>(tiles.size()); }
 
-    /// The 3 x 3 coefficients of the sub-patch containing (u, v) at level m, and the local
-    /// parameter. m is clamped to the tile's levels.
+    /// The 3 x 3 coefficients of the sub-patch containing (u, v) at level m, the local
+    /// parameter t and the level's size s (the factor of face derivatives). m is clamped to
+    /// the tile's levels.
     template <typename real>
-    glm::mat<3, 3, real> subpatch(int tile, int m, glm::vec<2, real> uv, glm::vec<2, real>& t) const {
+    glm::mat<3, 3, real> subpatch(int tile, int m, glm::vec<2, real> uv, glm::vec<2, real>& t, real& s) const {
         const Tile& tl = tiles.at(static_cast<std::size_t>(tile));
         m = std::min(std::max(m, 0), tl.k - 1);
         glm::ivec2 cell;
         t = kern::dmSubpatch(uv, tl.levelSize(m), cell);
+        s = static_cast<real>(tl.levelSize(m));
         glm::mat<3, 3, real> c;
         for (int i = 0; i < 3; ++i)
             for (int j = 0; j < 3; ++j) c[i][j] = static_cast<real>(tl.at(m, cell.x + i, cell.y + j));
@@ -119,24 +121,23 @@ class TileSet {
     /// D at (u, v) of a tile's level m.
     template <typename real> real evaluate(int tile, int m, glm::vec<2, real> uv) const {
         glm::vec<2, real> t;
-        auto c = subpatch(tile, m, uv, t);
+        real s;
+        auto c = subpatch(tile, m, uv, t, s);
         return kern::dmBiquadratic(c, t);
     }
     /// (D, D_u, D_v) with respect to the face's (u, v) (factor s of the level applied).
     template <typename real> glm::vec<3, real> evaluateD1(int tile, int m, glm::vec<2, real> uv) const {
         glm::vec<2, real> t;
-        auto c = subpatch(tile, m, uv, t);
+        real s;
+        auto c = subpatch(tile, m, uv, t, s);
         auto d = kern::dmBiquadraticD1(c, t);
-        real s = static_cast<real>(tiles[static_cast<std::size_t>(tile)].levelSize(
-            std::min(std::max(m, 0), tiles[static_cast<std::size_t>(tile)].k - 1)));
         return glm::vec<3, real>(d.x, d.y * s, d.z * s);
     }
     /// (D_uu, D_uv, D_vv) with respect to the face's (u, v).
     template <typename real> glm::vec<3, real> evaluateD2(int tile, int m, glm::vec<2, real> uv) const {
         glm::vec<2, real> t;
-        auto c = subpatch(tile, m, uv, t);
-        real s = static_cast<real>(tiles[static_cast<std::size_t>(tile)].levelSize(
-            std::min(std::max(m, 0), tiles[static_cast<std::size_t>(tile)].k - 1)));
+        real s;
+        auto c = subpatch(tile, m, uv, t, s);
         return kern::dmBiquadraticD2(c, t) * (s * s);
     }
 
