@@ -12,6 +12,10 @@ packages=(
   libcli11-dev          # command-line parsing of the dispmap program
   catch2                # unit tests (Catch2 v2) under CTest
   libbenchmark-dev      # Google Benchmark for the figures
+  glslang-tools         # glslangValidator: every generated GLSL include and shader compiled to SPIR-V
+  libvulkan-dev         # Vulkan headers and loader (the backend loads libvulkan.so.1 at run time)
+  mesa-vulkan-drivers   # lavapipe, the default (CPU) Vulkan device of the tests
+  vulkan-validationlayers  # VK_LAYER_KHRONOS_validation: the Vulkan tests fail on any message
 )
 
 missing=()

@@ -324,3 +324,58 @@ TEST_CASE("packed texture reproduces every tile at every level", "[packing]") {
         }
     }
 }
+
+TEST_CASE("the packed lookup (sampleD1) equals the tile set's evaluation and blends levels", "[packing]") {
+    ControlMesh mesh = dmtest::shape("catmark_nonquads");
+    std::vector<int> k = uniformTileSizes(mesh, 4);
+    TileSet ts = buildTiles(mesh, k, dmtest::roughSource);
+    PackedTiles p = ts.pack();
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> uni(0.0f, 1.0f);
+    for (int t = 0; t < ts.tileCount(); ++t) {
+        const Tile& tile = ts.tiles[std::size_t(t)];
+        const glm::uvec4 w = recordWords(p.records[std::size_t(t)]);
+        CHECK(kern::dmTileLog2(kern::dmRecordTileSize(w)) == tile.k);
+        for (int i = 0; i < 20; ++i) {
+            const glm::vec2 uv(i == 0 ? 1.0f : uni(rng), i == 1 ? 0.0f : uni(rng));
+            const float maxRes = kern::dmMaxResolution(tile.k, kern::dmUnpackSizeDifferences(w.w), uv);
+            // An integral resolution reads one level: exactly TileSet::evaluateD1 of that level.
+            for (int rho = 1; rho <= tile.k; ++rho) {
+                const int m = tile.k - std::min(rho, int(std::floor(std::max(maxRes, 1.0f))));
+                const glm::vec3 a = p.sampleD1<float>(t, uv, float(rho));
+                const glm::vec3 b = ts.evaluateD1<float>(t, m, uv);
+                CHECK(a == b);
+            }
+            // Between levels: the blend of the two, exact at the ends (dmBlendMips).
+            const float rho = 1.25f;
+            const glm::vec3 fine = ts.evaluateD1<float>(t, tile.k - 2, uv), coarse = ts.evaluateD1<float>(t, tile.k - 1, uv);
+            if (maxRes >= 2.0f) {
+                const glm::vec3 mixed = p.sampleD1<float>(t, uv, rho);
+                for (int j = 0; j < 3; ++j)
+                    CHECK(mixed[j] == Approx(0.75f * coarse[j] + 0.25f * fine[j]).margin(1e-5 * (1.0 + double(std::abs(fine[j])))));
+            }
+        }
+    }
+}
+
+TEMPLATE_TEST_CASE("fixed-order sums agree with a long double reference", "[kernels]", float, double) {
+    using real = TestType;
+    std::mt19937_64 rng(3);
+    std::uniform_real_distribution<double> uni(-1e3, 1e3);
+    for (int i = 0; i < 1000; ++i) {
+        glm::vec<3, real> a(real(uni(rng)), real(uni(rng)), real(uni(rng))), b(real(uni(rng)), real(uni(rng)), real(uni(rng)));
+        long double ref = 0, mag = 0;
+        for (int j = 0; j < 3; ++j) {
+            const long double p = static_cast<long double>(a[j]) * static_cast<long double>(b[j]);
+            ref += p;
+            mag += std::abs(p);
+        }
+        // Three roundings of terms no larger than the sum of magnitudes.
+        CHECK(std::abs(static_cast<long double>(kern::dmDot3(a, b)) - ref) <=
+              3 * static_cast<long double>(std::numeric_limits<real>::epsilon()) * mag);
+        glm::mat<3, 3, real> m(a, b, a * real(2));
+        glm::vec<3, real> mv = kern::dmMulMV3(m, b);
+        for (int r = 0; r < 3; ++r)
+            CHECK(mv[r] == ((m[0][r] * b.x + m[1][r] * b.y) + m[2][r] * b.z));
+    }
+}

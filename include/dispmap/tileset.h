@@ -92,6 +92,30 @@ struct PackedTiles {
     std::vector<PatchRecord> records;   ///< one per tile (depth 0: the tile is the patch)
     std::size_t usedTexels = 0;         ///< texels inside footprints
     std::size_t paperTexels = 0;        ///< sum over tiles of (1.5 s + 4)(s + 2), §4.3
+
+    /// The renderer's displacement lookup on the CPU, kernel for kernel what the tessellation
+    /// evaluation shader does: (D, D_u, D_v) with respect to the tile's (u, v) of `record`,
+    /// reading the two mip levels that resolution rho selects (dmSelectMips, clamped by the
+    /// §4.4 maximum at (u, v)) from the packed texture and blending them (dmBlendMips).
+    template <typename real> glm::vec<3, real> sampleD1(int record, glm::vec<2, real> uv, real rho) const {
+        const glm::uvec4 r = recordWords(records.at(static_cast<std::size_t>(record)));
+        const int s = kern::dmRecordTileSize(r);
+        const int k = kern::dmTileLog2(s);
+        const real maxRes = kern::dmMaxResolution(k, kern::dmUnpackSizeDifferences(r.w), uv);
+        int mFine = 0, mCoarse = 0;
+        const real w = kern::dmSelectMips(rho, maxRes, k, mFine, mCoarse);
+        auto level = [&](int m) {
+            glm::ivec2 texel;
+            const glm::vec<2, real> t = kern::dmPackedLocate(r, m, uv, texel);
+            glm::mat<3, 3, real> c;
+            for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j)
+                    c[i][j] = static_cast<real>(texels[static_cast<std::size_t>(texel.y + j) * static_cast<std::size_t>(width) +
+                                                       static_cast<std::size_t>(texel.x + i)]);
+            return kern::dmTileD1(c, t, s >> m);
+        };
+        return kern::dmBlendMips(level(mCoarse), level(mFine), w);
+    }
 };
 
 class TileSet {
@@ -130,8 +154,7 @@ class TileSet {
         glm::vec<2, real> t;
         real s;
         auto c = subpatch(tile, m, uv, t, s);
-        auto d = kern::dmBiquadraticD1(c, t);
-        return glm::vec<3, real>(d.x, d.y * s, d.z * s);
+        return kern::dmTileD1(c, t, static_cast<int>(s));
     }
     /// (D_uu, D_uv, D_vv) with respect to the face's (u, v).
     template <typename real> glm::vec<3, real> evaluateD2(int tile, int m, glm::vec<2, real> uv) const {

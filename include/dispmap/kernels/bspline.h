@@ -4,7 +4,7 @@
 #include "dispmap/kernels/prelude.h"
 
 namespace dispmap::kern {
-// dispmap:glsl-begin
+// dispmap:glsl-begin double
 // The three uniform quadratic B-spline basis functions that are non-zero on one knot
 // interval, at t in [0, 1]: ((1-t)^2/2, 1/2 + t(1-t), t^2/2). They sum to 1 for every t.
 DM_TFUNC rvec3 dmBSpline2(real t) {

@@ -16,10 +16,11 @@
 //  This is the paper's map T(u) = u - floor(u) + 1/2 written in coefficient indices: its
 //  B-spline knots sit at the sub-patch corners.
 #include "dispmap/kernels/bspline.h"
+#include "dispmap/kernels/sum.h"
 #include "dispmap/kernels/prelude.h"
 
 namespace dispmap::kern {
-// dispmap:glsl-begin
+// dispmap:glsl-begin double
 // Locates (u, v) in a tile level with s x s sub-patches: writes the sub-patch index (0..s-1
 // per axis) and returns the local parameter in [0, 1]^2. (u, v) is clamped into [0, 1]^2.
 DM_TFUNC rvec2 dmSubpatch(rvec2 uv, int s, DM_OUT(ivec2) cell) {
@@ -29,23 +30,39 @@ DM_TFUNC rvec2 dmSubpatch(rvec2 uv, int s, DM_OUT(ivec2) cell) {
 }
 
 // D on one sub-patch: c[i][j] is the coefficient i along u, j along v; t the local parameter.
+// The sums are in a fixed order (sum.h) so that C++ and GLSL agree bit for bit.
 DM_TFUNC real dmBiquadratic(rmat3 c, rvec2 t) {
-    return dot(c * dmBSpline2(t.x), dmBSpline2(t.y));
+    return dmDot3(dmMulMV3(c, dmBSpline2(t.x)), dmBSpline2(t.y));
 }
 
 // D and its first derivatives with respect to the local parameter: (D, dD/dtu, dD/dtv).
 DM_TFUNC rvec3 dmBiquadraticD1(rmat3 c, rvec2 t) {
     rvec3 bu = dmBSpline2(t.x);
     rvec3 bv = dmBSpline2(t.y);
-    rvec3 cu = c * bu;
-    return rvec3(dot(cu, bv), dot(c * dmBSpline2D1(t.x), bv), dot(cu, dmBSpline2D1(t.y)));
+    rvec3 cu = dmMulMV3(c, bu);
+    return rvec3(dmDot3(cu, bv), dmDot3(dmMulMV3(c, dmBSpline2D1(t.x)), bv), dmDot3(cu, dmBSpline2D1(t.y)));
 }
 
 // Second derivatives with respect to the local parameter: (d2D/dtu2, d2D/dtu dtv, d2D/dtv2).
 DM_TFUNC rvec3 dmBiquadraticD2(rmat3 c, rvec2 t) {
     rmat3 bu = dmBSpline2Derivs(t.x);
     rmat3 bv = dmBSpline2Derivs(t.y);
-    return rvec3(dot(c * bu[2], bv[0]), dot(c * bu[1], bv[1]), dot(c * bu[0], bv[2]));
+    return rvec3(dmDot3(dmMulMV3(c, bu[2]), bv[0]), dmDot3(dmMulMV3(c, bu[1]), bv[1]),
+                 dmDot3(dmMulMV3(c, bu[0]), bv[2]));
+}
+
+// (D, D_u, D_v) with respect to the face's (u, v) on a level of size s: dmBiquadraticD1 with
+// the local derivatives scaled by s (t = s*u - i).
+DM_TFUNC rvec3 dmTileD1(rmat3 c, rvec2 t, int s) {
+    rvec3 d = dmBiquadraticD1(c, t);
+    return rvec3(d.x, d.y * real(s), d.z * real(s));
+}
+
+// Blends (D, D_u, D_v) of two mip levels with the weight of the finer one (dmSelectMips):
+// exactly `coarse` at w = 0 and exactly `fine` at w = 1. Written out rather than with mix(),
+// whose rounding GLSL leaves to the implementation.
+DM_TFUNC rvec3 dmBlendMips(rvec3 coarse, rvec3 fine, real w) {
+    return coarse * (real(1) - w) + fine * w;
 }
 
 // Bilinear interpolation of four corner values: corner 0 at (0,0), 1 at (1,0), 2 at (1,1),
@@ -79,6 +96,17 @@ DM_FUNC ivec2 dmTileFootprint(int k) {
     return ivec2(s + 2 + (s >> 1) + 2, max(s + 2, s + 2 * k - 4));
 }
 
+// log2 of a tile size s = 2^k, 1 <= k <= 15 (the record stores s, as the paper's struct does).
+DM_FUNC int dmTileLog2(int s) {
+    int k = 0;
+    for (int j = 1; j <= 15; ++j) {
+        if ((1 << j) == s) {
+            k = j;
+        }
+    }
+    return k;
+}
+
 // The 16-byte patch record of §5.4, read as four little-endian 32-bit words:
 //   x = globalTextureOffsetXY, y = localDomainOffsetXY, z = tileSize | rotation << 16,
 //   w = tileSizeDifferences[0..3], corner i in bits 8i..8i+7.
@@ -109,8 +137,21 @@ DM_TFUNC real dmMaxResolution(int k, ivec4 diffs, rvec2 uv) {
     return real(k) - dmBilerp(rvec4(diffs), uv);
 }
 
+// Locates (u, v) of the tile of record r in its level m in the packed texture: writes the
+// texel of the first coefficient of the 3 x 3 block to read (coefficient (i, j) of the block
+// is at texel + (i, j), i along u, texture x) and returns the local parameter t. With the
+// block gathered into c[i][j], dmTileD1(c, t, s >> m) is (D, D_u, D_v) at (u, v).
+DM_TFUNC rvec2 dmPackedLocate(uvec4 r, int m, rvec2 uv, DM_OUT(ivec2) texel) {
+    int s = dmRecordTileSize(r);
+    ivec2 cell;
+    rvec2 t = dmSubpatch(uv, s >> m, cell);
+    texel = dmRecordTextureOffset(r) + dmMipOffset(dmTileLog2(s), m) + cell;
+    return t;
+}
+
 // Maps a patch's (u, v) into its tile's (u, v) (§5.4): the patch covers the square of side
-// 2^-depth at localOffset * 2^-depth, turned by `rotation` quarter turns (counter-clockwise
+// 2^-depth at localOffset * 2^-depth (0 <= depth <= 30; the division by 2^depth is exact at
+// both precisions, unlike exp2, which GLSL has for float only), turned by `rotation` quarter turns (counter-clockwise
 // about the patch centre: rotation 1 maps (u, v) to (1 - v, u)).
 DM_TFUNC rvec2 dmPatchToTile(rvec2 uv, ivec2 localOffset, int depth, int rotation) {
     rvec2 r = uv;
@@ -121,7 +162,7 @@ DM_TFUNC rvec2 dmPatchToTile(rvec2 uv, ivec2 localOffset, int depth, int rotatio
     } else if (rotation == 3) {
         r = rvec2(uv.y, real(1) - uv.x);
     }
-    return (rvec2(localOffset) + r) * exp2(real(-depth));
+    return (rvec2(localOffset) + r) / real(1 << depth);
 }
 // dispmap:glsl-end
 } // namespace dispmap::kern

@@ -1,0 +1,9 @@
+// A kernel header the generator must refuse (tests/CMakeLists.txt names the expected error).
+#include "dispmap/kernels/prelude.h"
+namespace dispmap::kern {
+// dispmap:glsl-begin
+DM_TFUNC void dmSet(real& x) {
+    x = real(1);
+}
+// dispmap:glsl-end
+} // namespace dispmap::kern
