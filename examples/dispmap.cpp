@@ -2,6 +2,7 @@
 //   dispmap demo                      build the embedded default tile set, print its figures
 //   dispmap tiles --mesh M.obj ...    build (or --load) a tile set, print statistics, save it
 //   dispmap bench [gbench args]       the benchmark table and the timings
+//   dispmap parity                    every kernel on the GPU (lavapipe by default) against C++
 #include <CLI/CLI.hpp>
 
 #include <iostream>
@@ -11,7 +12,9 @@
 #include "dispmap/height_image.h"
 #include "dispmap/tile_builder.h"
 #include "dispmap/tile_file.h"
+#include "dispmap/vulkan/context.h"
 #include "figures.h"
+#include "parity.h"
 
 using namespace dispmap;
 
@@ -77,6 +80,39 @@ int tiles(const TilesArgs& a) {
     }
     return 0;
 }
+struct ParityArgs {
+    parity::Options options;
+    std::string device;
+    bool validation = false;
+    bool strict = false, loose = false;
+};
+
+// Exit status 1 when a kernel is over its bound or the validation layer spoke.
+int runParity(const ParityArgs& a) {
+    vulkan::DeviceOptions dev;
+    dev.device = a.device;
+    dev.validation = a.validation;
+    dev.float64 = true;
+    std::unique_ptr<vulkan::Context> ctx;
+    try {
+        ctx = std::make_unique<vulkan::Context>(dev);
+    } catch (const vulkan::VulkanError&) {
+        dev.float64 = false; // a device without shaderFloat64 runs the float kernels only
+        ctx = std::make_unique<vulkan::Context>(dev);
+    }
+    parity::Options opt = a.options;
+    if (a.strict) opt.strict = 1;
+    if (a.loose) opt.strict = 0;
+    auto results = parity::run(*ctx, opt);
+    parity::printTable(std::cout, results, ctx->deviceName(), parity::strictFor(*ctx, opt));
+    int status = 0;
+    for (const auto& r : results) status |= r.ok() ? 0 : 1;
+    for (const std::string& m : ctx->takeValidationMessages()) {
+        std::cerr << "validation: " << m << "\n";
+        status = 1;
+    }
+    return status;
+}
 } // namespace
 
 int main(int argc, char** argv) {
@@ -101,10 +137,20 @@ int main(int argc, char** argv) {
     std::string csv;
     benchCmd->add_option("--csv", csv, "also write the mip table as CSV");
     benchCmd->allow_extras();
+    ParityArgs pa;
+    auto* parityCmd = app.add_subcommand("parity", "run every kernel in a compute shader and in C++, compare");
+    parityCmd->add_option("--inputs", pa.options.inputs, "inputs per kernel (exhaustive sets may add more)");
+    parityCmd->add_option("--seed", pa.options.seed, "random seed of the input sets");
+    parityCmd->add_option("--kernel", pa.options.filter, "only kernels whose name contains this");
+    parityCmd->add_option("--device", pa.device, "Vulkan device: index or name substring (default: lavapipe)");
+    parityCmd->add_flag("--validation", pa.validation, "enable the validation layer; any message fails");
+    parityCmd->add_flag("--strict", pa.strict, "hold exact kernels to 0 ULP whatever the device");
+    parityCmd->add_flag("--fused", pa.loose, "allow FMA contraction on exact kernels whatever the device");
     CLI11_PARSE(app, argc, argv);
     try {
         if (*demoCmd) return demo(quick);
         if (*tilesCmd) return tiles(ta);
+        if (*parityCmd) return runParity(pa);
         if (*benchCmd) {
             figures::printMipTable(std::cout, csv);
             return figures::runBenchmarks(benchCmd->remaining());
