@@ -386,12 +386,12 @@ template <class real> std::string describe(const real* a, ivec4 n) {
 template <class real> void evaluate(int id, const real* args, ivec4 n, real* out, ivec4& o) {
     using v4 = glm::vec<4, real>;
     v4 a(args[0], args[1], args[2], args[3]), b(args[4], args[5], args[6], args[7]), c(args[8], args[9], args[10], args[11]);
-    v4 r, q, p;
+    v4 r(0), q(0), p(0);
+    o = ivec4(0);
     if (id < 32) {
         kern::dmParityTile(id, a, b, c, n, r, q, p, o);
     } else if constexpr (std::is_same_v<real, float>) {
-        kern::dmParityLod(id, a, b, n, r, o);
-        q = p = v4(0);
+        kern::dmParityLod(id, a, b, n, r, o); // float only, as in the shader
     }
     for (int i = 0; i < 4; ++i) {
         out[i] = r[i];
