@@ -2,16 +2,19 @@
 //
 // Every kernel in include/dispmap/kernels/ is written once, between the markers
 //     // dispmap:glsl-begin      and      // dispmap:glsl-end
-// and that text is at the same time C++ over GLM and GLSL 4.50. The generator (shaders/)
-// copies the marked text verbatim; all language differences live in this prelude and
-// in its GLSL twin:
+// (or `// dispmap:glsl-begin double` where GLSL should also get a double variant), and that
+// text is at the same time C++ over GLM and GLSL 4.50. The generator (cmake/glslgen.cpp,
+// output in shaders/generated/) copies the marked text verbatim and refuses what is outside
+// the subset; all language differences live in this prelude and in its GLSL twin, which the
+// generator writes as prelude.glsl:
 //
 //   spelling          C++ (this file)                       GLSL
 //   DM_FUNC           inline                                (empty)
 //   DM_TFUNC          template <typename real> inline       (empty)
 //   DM_OUT(T)         T&                                    out T
 //   DM_INOUT(T)       T&                                    inout T
-//   real              the template parameter (float/double) #define real float (double variant: double)
+//   real              the template parameter (float/double) #define real float (double variant: double,
+//                                                          behind DM_ENABLE_DOUBLE)
 //   rvec2..4, rmat3   glm::vec<N, real>, glm::mat<3,3,real> vec2..4, mat3 (double: dvec2.., dmat3)
 //
 // Rules of the subset (DESIGN.md): free functions with a `dm` prefix; scalar, vector and
