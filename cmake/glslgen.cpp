@@ -241,7 +241,6 @@ std::vector<Item> splitItems(const std::vector<std::string>& lines, int first, i
         };
         while (ln < last && isCommentOrBlank(ln)) ++ln;
         if (ln == last) break;
-        std::vector<Token> head;
         int depth = 0;
         int end = ln;
         bool done = false;
@@ -332,7 +331,7 @@ Header readHeader(const fs::path& p, const fs::path& root) {
         } else if (s.rfind("// dispmap:glsl-end", 0) == 0) {
             if (h.begin < 0 || h.end >= 0) fail(h.display, i + 1, "dispmap:glsl-end without a begin");
             h.end = i;
-        } else if (s.rfind("#include \"dispmap/kernels/", 0) == 0 || s.rfind("#include \"", 0) == 0) {
+        } else if (s.rfind("#include \"", 0) == 0) {
             std::size_t a = s.find('"') + 1, b = s.find('"', a);
             std::string inc = s.substr(a, b - a);
             fs::path ip(inc);
@@ -426,11 +425,11 @@ std::string emitPrelude() {
            "#endif // DISPMAP_GLSL_PRELUDE\n";
 }
 
-std::string emitCheckShader(const Header& h, bool withDouble) {
-    std::string s = "#version 450\n#extension GL_GOOGLE_include_directive : require\n";
-    if (withDouble) s += "#define DM_ENABLE_DOUBLE\n";
-    s += "#include \"" + h.stem + ".glsl\"\nlayout(local_size_x = 1) in;\nvoid main() {}\n";
-    return s;
+// A compute shader that only includes one generated file, with the double variants enabled:
+// compiling it checks the float and the double text (and those of its dependencies).
+std::string emitCheckShader(const Header& h) {
+    return "#version 450\n#extension GL_GOOGLE_include_directive : require\n#define DM_ENABLE_DOUBLE\n#include \"" +
+           h.stem + ".glsl\"\nlayout(local_size_x = 1) in;\nvoid main() {}\n";
 }
 
 void writeIfChanged(const fs::path& p, const std::string& text) {
@@ -485,11 +484,7 @@ int main(int argc, char** argv) {
         if (mode == "--out") {
             for (const auto& [name, text] : files) writeIfChanged(fs::path(dir) / name, text);
         } else if (mode == "--check-shaders") {
-            for (const Header& h : headers) {
-                writeIfChanged(fs::path(dir) / ("check_" + h.stem + ".comp"), emitCheckShader(h, false));
-                if (h.doubleVariant)
-                    writeIfChanged(fs::path(dir) / ("check_" + h.stem + "_double.comp"), emitCheckShader(h, true));
-            }
+            for (const Header& h : headers) writeIfChanged(fs::path(dir) / ("check_" + h.stem + ".comp"), emitCheckShader(h));
         } else {
             int stale = 0;
             for (const auto& [name, text] : files) {

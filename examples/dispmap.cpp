@@ -92,14 +92,8 @@ int runParity(const ParityArgs& a) {
     vulkan::DeviceOptions dev;
     dev.device = a.device;
     dev.validation = a.validation;
-    dev.float64 = true;
-    std::unique_ptr<vulkan::Context> ctx;
-    try {
-        ctx = std::make_unique<vulkan::Context>(dev);
-    } catch (const vulkan::VulkanError&) {
-        dev.float64 = false; // a device without shaderFloat64 runs the float kernels only
-        ctx = std::make_unique<vulkan::Context>(dev);
-    }
+    dev.float64 = vulkan::Float64::IfSupported; // without it only the float kernels run
+    auto ctx = std::make_unique<vulkan::Context>(dev);
     parity::Options opt = a.options;
     if (a.strict) opt.strict = 1;
     if (a.loose) opt.strict = 0;

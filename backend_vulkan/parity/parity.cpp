@@ -103,6 +103,15 @@ template <class real> real ulpOf(real x) {
     return std::nextafter(x, std::numeric_limits<real>::infinity()) - x;
 }
 
+// Error of a GPU result y against the CPU result x in ULP of max(|x|, the kernel's scale),
+// whose ULP is `unit`: 0 when the bits agree (or for +0 against -0), Inf when one is NaN.
+template <class real> double ulpError(real x, real y, real unit) {
+    if (std::memcmp(&x, &y, sizeof(real)) == 0 || x == y) return 0;
+    if (std::isnan(x) || std::isnan(y)) return std::numeric_limits<double>::infinity();
+    const real u = std::max(unit, ulpOf(x));
+    return static_cast<double>(std::abs(x - y)) / static_cast<double>(u > 0 ? u : std::numeric_limits<real>::denorm_min());
+}
+
 // ------------------------------------------------------------------------------------------
 // Inputs.
 template <class real> struct Gen {
@@ -449,17 +458,8 @@ KernelResult runKernel(vulkan::Context& ctx, const vulkan::ComputePipeline& pipe
             if (!same) worst = std::numeric_limits<double>::infinity();
             for (int j = 0; j < 12; ++j) {
                 const real x = cpu[j], y = gpu[i * 12 + static_cast<std::size_t>(j)];
-                if (std::memcmp(&x, &y, sizeof(real)) == 0) continue;
-                same = false;
-                double e;
-                if (std::isnan(x) || std::isnan(y)) {
-                    e = std::numeric_limits<double>::infinity();
-                } else {
-                    const real u = std::max(unit, ulpOf(x));
-                    e = static_cast<double>(std::abs(x - y)) / static_cast<double>(u > 0 ? u : std::numeric_limits<real>::denorm_min());
-                    if (x == y) e = 0; // +0 and -0
-                }
-                worst = std::max(worst, e);
+                same = same && std::memcmp(&x, &y, sizeof(real)) == 0;
+                worst = std::max(worst, ulpError(x, y, unit));
             }
             res.bitExact += same ? 1 : 0;
             sum += std::isfinite(worst) ? worst : 0;
@@ -528,8 +528,7 @@ KernelResult runPacked(vulkan::Context& ctx, const Options& opt, bool strict) {
             }
         }
     }
-    PackedTiles eval = packed;
-    eval.records = records;
+    packed.records = records; // the variants replace the packer's records
 
     KernelResult res;
     res.kernel = "PackedTiles::sampleD1 (whole lookup)";
@@ -563,16 +562,13 @@ KernelResult runPacked(vulkan::Context& ctx, const Options& opt, bool strict) {
         const Query& q = queries[i];
         const glm::uvec4 w = recordWords(records[static_cast<std::size_t>(q.record)]);
         const glm::vec2 uv = kern::dmPatchToTile(q.uv, kern::dmRecordLocalOffset(w), q.depth, kern::dmRecordRotation(w));
-        const glm::vec3 cpu = eval.sampleD1<float>(q.record, uv, q.rho);
+        const glm::vec3 cpu = packed.sampleD1<float>(q.record, uv, q.rho);
         const float unit = ulpOf(scale[i]);
         double worst = 0;
         bool same = true;
         for (int j = 0; j < 3; ++j) {
-            if (std::memcmp(&cpu[j], &gpu[i][j], sizeof(float)) == 0) continue;
-            same = false;
-            worst = std::max(worst, std::isnan(gpu[i][j]) ? std::numeric_limits<double>::infinity()
-                                                          : static_cast<double>(std::abs(cpu[j] - gpu[i][j])) /
-                                                                static_cast<double>(std::max(unit, ulpOf(cpu[j]))));
+            same = same && std::memcmp(&cpu[j], &gpu[i][j], sizeof(float)) == 0;
+            worst = std::max(worst, ulpError(cpu[j], gpu[i][j], unit));
         }
         res.bitExact += same ? 1 : 0;
         sum += std::isfinite(worst) ? worst : 0;

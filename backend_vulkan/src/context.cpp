@@ -297,10 +297,10 @@ void Context::create(const DeviceOptions& options) {
 
     VkPhysicalDeviceFeatures supported{};
     fn_.vkGetPhysicalDeviceFeatures(physicalDevice_, &supported);
-    if (options.float64 && !supported.shaderFloat64)
+    if (options.float64 == Float64::Required && !supported.shaderFloat64)
         throw VulkanError("Vulkan device '" + deviceName_ +
                           "' does not support shaderFloat64 (double in shaders)");
-    enabled_.shaderFloat64 = options.float64 ? VK_TRUE : VK_FALSE;
+    enabled_.shaderFloat64 = options.float64 != Float64::Off ? supported.shaderFloat64 : VK_FALSE;
     enabled_.tessellationShader = supported.tessellationShader;
     enabled_.fillModeNonSolid = supported.fillModeNonSolid;
     enabled_.pipelineStatisticsQuery = supported.pipelineStatisticsQuery;

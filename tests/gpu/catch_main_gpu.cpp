@@ -39,14 +39,8 @@ namespace dmgpu {
 dispmap::vulkan::Context& context() {
     auto& context = sharedContext();
     if (!context) {
-        try {
-            context = std::make_unique<dispmap::vulkan::Context>(
-                dispmap::vulkan::DeviceOptions{.validation = true, .float64 = true});
-        } catch (const dispmap::vulkan::VulkanError&) {
-            // No shaderFloat64 (or a failure that the second attempt reports again).
-            context = std::make_unique<dispmap::vulkan::Context>(
-                dispmap::vulkan::DeviceOptions{.validation = true});
-        }
+        context = std::make_unique<dispmap::vulkan::Context>(dispmap::vulkan::DeviceOptions{
+            .validation = true, .float64 = dispmap::vulkan::Float64::IfSupported});
     }
     return *context;
 }

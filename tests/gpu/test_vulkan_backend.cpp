@@ -253,3 +253,16 @@ TEST_CASE("A missing loader / driver / layer / device is a clear error", "[vulka
     }
     dmgpu::checkNoValidationMessages();
 }
+
+TEST_CASE("shaderFloat64 is enabled as the options ask", "[vulkan]") {
+    using dispmap::vulkan::Float64;
+    dispmap::vulkan::Context off(dispmap::vulkan::DeviceOptions{.float64 = Float64::Off});
+    CHECK_FALSE(off.float64Enabled());
+    dispmap::vulkan::Context ifSupported(dispmap::vulkan::DeviceOptions{.float64 = Float64::IfSupported});
+    if (ifSupported.deviceName().find("llvmpipe") != std::string::npos) {
+        CHECK(ifSupported.float64Enabled()); // lavapipe has it
+        dispmap::vulkan::Context required(dispmap::vulkan::DeviceOptions{.float64 = Float64::Required});
+        CHECK(required.float64Enabled());
+    }
+    dmgpu::checkNoValidationMessages();
+}

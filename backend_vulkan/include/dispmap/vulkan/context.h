@@ -107,6 +107,13 @@ struct Functions {
 #undef DISPMAP_VK_MEMBER
 };
 
+/// Whether the device gets shaderFloat64 (double in shaders).
+enum class Float64 : std::uint8_t {
+    Off,         ///< not enabled
+    IfSupported, ///< enabled where the device has it; see Context::float64Enabled()
+    Required,    ///< enabled, or a VulkanError naming the device
+};
+
 /// How the Context picks and sets up its device.
 struct DeviceOptions {
     /// Empty: the environment variable DISPMAP_VK_DEVICE, and if that is empty too, the first
@@ -116,8 +123,7 @@ struct DeviceOptions {
     /// VK_LAYER_KHRONOS_validation with a debug messenger (warnings and errors recorded); also
     /// switched on by DISPMAP_VK_VALIDATION=1.
     bool validation = false;
-    /// Require and enable shaderFloat64.
-    bool float64 = false;
+    Float64 float64 = Float64::Off;
 };
 
 class Buffer;
