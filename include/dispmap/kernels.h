@@ -3,3 +3,4 @@
 #include "dispmap/kernels/bspline.h"
 #include "dispmap/kernels/lod.h"
 #include "dispmap/kernels/tile.h"
+#include "dispmap/kernels/normal.h"

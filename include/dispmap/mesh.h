@@ -152,6 +152,9 @@ class ControlMesh {
     const Far::PtexIndices& ptex() const { return *ptex_; }
     int ptexFaceCount() const { return ptex_->GetNumFaces(); }
     bool hasUVs() const { return !desc_.faceUVs.empty(); }
+    /// A new, unrefined TopologyRefiner of this mesh, for callers that refine (BaseSurface
+    /// refines adaptively; the one above stays at the base level).
+    std::unique_ptr<Far::TopologyRefiner> createRefiner() const;
     /// First vertex of face f in the concatenated face-vertex arrays.
     int faceOffset(int f) const { return offsets_[static_cast<std::size_t>(f)]; }
 
@@ -208,8 +211,26 @@ inline void ControlMesh::build() {
     for (float w : d.cornerWeights)
         if (!std::isfinite(w) || w < 0.0f) throw MeshError(n + ": corner sharpness must be finite and >= 0");
 
+    refiner_ = createRefiner();
+    const Far::TopologyLevel& l = refiner_->GetLevel(0);
+    for (int e = 0; e < l.GetNumEdges(); ++e)
+        if (l.IsEdgeNonManifold(e)) {
+            auto ev = l.GetEdgeVertices(e);
+            throw MeshError(n + ": non-manifold edge between vertices " + std::to_string(ev[0] + 1) + " and " +
+                            std::to_string(ev[1] + 1) + " (" + std::to_string(l.GetEdgeFaces(e).size()) +
+                            " faces, or faces with opposite orientation)");
+        }
+    for (int v = 0; v < l.GetNumVertices(); ++v)  // a vertex no face uses is harmless
+        if (l.IsVertexNonManifold(v) && l.GetVertexFaces(v).size() > 0)
+            throw MeshError(n + ": non-manifold vertex " + std::to_string(v + 1) + " (its faces do not form one fan)");
+    ptex_ = std::make_shared<Far::PtexIndices>(*refiner_);
+}
+
+inline std::unique_ptr<Far::TopologyRefiner> ControlMesh::createRefiner() const {
+    const MeshDescription& d = desc_;
+    const std::string& n = d.name;
     Far::TopologyDescriptor td;
-    td.numVertices = nv;
+    td.numVertices = static_cast<int>(d.positions.size());
     td.numFaces = static_cast<int>(d.faceSizes.size());
     td.numVertsPerFace = d.faceSizes.data();
     td.vertIndicesPerFace = d.faceVertices.data();
@@ -230,19 +251,7 @@ inline void ControlMesh::build() {
         td, Far::TopologyRefinerFactory<Far::TopologyDescriptor>::Options(Sdc::SCHEME_CATMARK, sdc));
     Far::SetErrorCallback(nullptr);
     if (!r) throw MeshError(n + ": OpenSubdiv rejected the topology: " + detail::farMessages());
-    refiner_.reset(r);
-    const Far::TopologyLevel& l = refiner_->GetLevel(0);
-    for (int e = 0; e < l.GetNumEdges(); ++e)
-        if (l.IsEdgeNonManifold(e)) {
-            auto ev = l.GetEdgeVertices(e);
-            throw MeshError(n + ": non-manifold edge between vertices " + std::to_string(ev[0] + 1) + " and " +
-                            std::to_string(ev[1] + 1) + " (" + std::to_string(l.GetEdgeFaces(e).size()) +
-                            " faces, or faces with opposite orientation)");
-        }
-    for (int v = 0; v < l.GetNumVertices(); ++v)  // a vertex no face uses is harmless
-        if (l.IsVertexNonManifold(v) && l.GetVertexFaces(v).size() > 0)
-            throw MeshError(n + ": non-manifold vertex " + std::to_string(v + 1) + " (its faces do not form one fan)");
-    ptex_ = std::make_shared<Far::PtexIndices>(*refiner_);
+    return std::unique_ptr<Far::TopologyRefiner>(r);
 }
 
 inline ControlMesh ControlMesh::fromObjFile(const std::string& path) {

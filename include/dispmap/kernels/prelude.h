@@ -43,6 +43,7 @@ namespace dispmap::kern {
 // resolution for a kernel.
 using glm::abs;
 using glm::clamp;
+using glm::cross;
 using glm::dot;
 using glm::exp2;
 using glm::floor;

@@ -1,0 +1,172 @@
+#pragma once
+// DisplacedSurface: f(face, u, v) = s + N_s D and its normal, the CPU reference of what the
+// renderer draws (Nießner & Loop 2013, §5.1, §5.2, §5.4, §6.2).
+//
+// Normals, per NormalMode:
+//  * Approximate (§5.2, Blinn): f_u = s_u + N_s D_u; no second derivatives of s needed.
+//  * Accurate (§5.1): f_u = s_u + N_s,u D + N_s D_u with N_s,u from the Weingarten equations
+//    (kernels/normal.h).
+//  * Auto: per face, the accurate normal only where a bound on the Weingarten term says the
+//    approximate normal is off by more than the caller's tolerance (an angle). The bound is
+//    computed once per face (autoFaces()): the largest |D| over the tile's coefficients (a
+//    true bound: B-spline convex hull, also over mip blends), times the largest sampled
+//    dmWeingartenAngleBound over a grid of the face, times a margin of 2 for what lies between
+//    the samples. The tests check the promise pointwise on every test mesh.
+// In end-cap patches at extraordinary corners the normal blends to the limit normal (§5.4).
+//
+// D comes from the TileSet with the §4.4 clamp always applied (so that tiles of different
+// sizes agree along their shared edges) and, for level of detail, at a resolution rho (the
+// log2 of the level size to read, §6.2), blending the two nearest levels.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "dispmap/base_surface.h"
+#include "dispmap/kernels/lod.h"
+#include "dispmap/kernels/normal.h"
+#include "dispmap/tileset.h"
+
+namespace dispmap {
+
+enum class NormalMode { Approximate, Accurate, Auto };
+inline const char* toString(NormalMode m) {
+    return m == NormalMode::Approximate ? "approximate" : m == NormalMode::Accurate ? "accurate" : "auto";
+}
+
+/// The smallest sine of the angle between s_u and s_v above which the first fundamental form
+/// is used as it is (kernels/normal.h): about sqrt of the precision's epsilon.
+template <typename real> constexpr real kSinMin = real(1e-3);
+template <> inline constexpr double kSinMin<double> = 1e-7;
+
+/// Resolution that reads the finest level everywhere (still clamped by §4.4).
+inline constexpr double kFinest = 64.0;
+
+template <typename real> struct SurfaceSample {
+    using vec3 = glm::vec<3, real>;
+    vec3 position{0};   ///< f
+    vec3 normal{0};     ///< N_f of the mode used (after the §5.4 blend)
+    vec3 du{0}, dv{0};  ///< f_u, f_v of the mode used
+    vec3 baseNormal{0}; ///< N_s
+    vec3 displacement{0}; ///< (D, D_u, D_v)
+    bool accurate = false; ///< whether the Weingarten term was included
+};
+
+struct DisplacedSurfaceOptions {
+    /// Auto mode: largest accepted angle (radians) between approximate and accurate normal.
+    double autoTolerance = 0.01;
+    /// Samples per side of the per-face grid the auto bound is taken over.
+    int autoSamples = 9;
+};
+
+class DisplacedSurface {
+  public:
+    /// Throws ArgumentError if the tiles do not belong to the surface's mesh (count) or the
+    /// options are out of range (tolerance not finite or < 0, fewer than 2 samples).
+    DisplacedSurface(const BaseSurface& base, const TileSet& tiles, DisplacedSurfaceOptions options = {});
+
+    const BaseSurface& base() const { return *base_; }
+    const TileSet& tiles() const { return *tiles_; }
+    const DisplacedSurfaceOptions& options() const { return options_; }
+
+    /// Per Ptex face: whether auto mode evaluates the accurate normal there.
+    const std::vector<std::uint8_t>& autoFaces() const { return autoAccurate_; }
+    /// How many faces auto mode evaluates accurately, and the bound per face (sine).
+    int autoAccurateCount() const { return autoCount_; }
+    double autoBound(int face) const { return autoBound_.at(static_cast<std::size_t>(face)); }
+
+    /// (D, D_u, D_v) at (face, u, v) read at resolution rho (kFinest: the finest level the
+    /// §4.4 clamp allows).
+    template <typename real> glm::vec<3, real> displacement(int face, real u, real v, real rho = real(kFinest)) const;
+
+    /// f, N_f and the rest at (face, u, v); throws as BaseSurface::evaluate.
+    template <typename real>
+    SurfaceSample<real> evaluate(int face, real u, real v, NormalMode mode, real rho = real(kFinest)) const;
+
+  private:
+    const BaseSurface* base_;
+    const TileSet* tiles_;
+    DisplacedSurfaceOptions options_;
+    std::vector<std::uint8_t> autoAccurate_;
+    std::vector<double> autoBound_;
+    int autoCount_ = 0;
+};
+
+template <typename real> glm::vec<3, real> DisplacedSurface::displacement(int face, real u, real v, real rho) const {
+    const Tile& t = tiles_->tiles[static_cast<std::size_t>(face)];
+    const glm::vec<2, real> uv(u, v);
+    const glm::ivec4 diffs(t.sizeDifferences[0], t.sizeDifferences[1], t.sizeDifferences[2], t.sizeDifferences[3]);
+    const real maxRes = kern::dmMaxResolution(t.k, diffs, uv);
+    int mFine = 0, mCoarse = 0;
+    const real w = kern::dmSelectMips(rho, maxRes, t.k, mFine, mCoarse);
+    const glm::vec<3, real> coarse = tiles_->evaluateD1(face, mCoarse, uv);
+    if (w == real(0)) return coarse;
+    return kern::dmBlendMips(coarse, tiles_->evaluateD1(face, mFine, uv), w);
+}
+
+template <typename real>
+SurfaceSample<real> DisplacedSurface::evaluate(int face, real u, real v, NormalMode mode, real rho) const {
+    const bool accurate = mode == NormalMode::Accurate ||
+                          (mode == NormalMode::Auto && autoAccurate_[static_cast<std::size_t>(face)] != 0);
+    const BaseSample<real> s = base_->evaluate(face, u, v, true);
+    SurfaceSample<real> out;
+    const glm::vec<3, real> fallback(real(0), real(0), real(1));
+    const glm::vec<3, real> N = kern::dmBaseNormal(s.du, s.dv, s.duu, s.duv, s.dvv, fallback);
+    const glm::vec<3, real> d1 = displacement(face, u, v, rho);
+    glm::vec<3, real> n;
+    if (accurate) {
+        glm::vec<3, real> Nu, Nv;
+        kern::dmNormalDerivWeingarten(s.du, s.dv, s.duu, s.duv, s.dvv, N, kSinMin<real>, Nu, Nv);
+        n = kern::dmDisplacedNormalAccurate(s.du, s.dv, N, Nu, Nv, d1, out.du, out.dv);
+    } else {
+        n = kern::dmDisplacedNormalApprox(s.du, s.dv, N, d1, out.du, out.dv);
+    }
+    out.position = s.p + N * d1.x;
+    out.normal = s.evWeight > real(0) ? kern::dmBlendLimitNormal(n, s.evNormal, s.evWeight) : n;
+    out.baseNormal = N;
+    out.displacement = d1;
+    out.accurate = accurate;
+    return out;
+}
+
+inline DisplacedSurface::DisplacedSurface(const BaseSurface& base, const TileSet& tiles, DisplacedSurfaceOptions options)
+    : base_(&base), tiles_(&tiles), options_(options) {
+    if (tiles.tileCount() != base.faceCount())
+        throw ArgumentError("the tile set has " + std::to_string(tiles.tileCount()) + " tiles but the surface has " +
+                            std::to_string(base.faceCount()) + " Ptex faces: it was built for another mesh");
+    if (!std::isfinite(options.autoTolerance) || options.autoTolerance < 0.0)
+        throw ArgumentError("auto-normal tolerance must be a finite angle >= 0 (radians)");
+    if (options.autoSamples < 2 || options.autoSamples > 1024)
+        throw ArgumentError("auto-normal samples per side must be in [2, 1024]");
+    const int n = base.faceCount();
+    autoAccurate_.assign(static_cast<std::size_t>(n), 0);
+    autoBound_.assign(static_cast<std::size_t>(n), 0.0);
+    const double limit = std::sin(std::min(options.autoTolerance, 1.5707963267948966));
+    for (int f = 0; f < n; ++f) {
+        if (base.isHole(f)) continue;
+        const Tile& t = tiles.tiles[static_cast<std::size_t>(f)];
+        double maxD = 0;
+        for (float c : t.coefficients) maxD = std::max(maxD, static_cast<double>(std::abs(c)));
+        double bound = 0;
+        const int m = options.autoSamples;
+        for (int j = 0; j < m && bound < 1.0; ++j)
+            for (int i = 0; i < m && bound < 1.0; ++i) {
+                const double u = i / double(m - 1), v = j / double(m - 1);
+                const BaseSample<double> s = base.evaluate(f, u, v, true);
+                const glm::dvec3 N = kern::dmBaseNormal(s.du, s.dv, s.duu, s.duv, s.dvv, glm::dvec3(0, 0, 1));
+                glm::dvec3 Nu, Nv, au, av;
+                kern::dmNormalDerivWeingarten(s.du, s.dv, s.duu, s.duv, s.dvv, N, kSinMin<double>, Nu, Nv);
+                kern::dmDisplacedNormalApprox(s.du, s.dv, N, displacement(f, u, v, kFinest), au, av);
+                bound = std::max(bound, kern::dmWeingartenAngleBound(au, av, Nu, Nv, maxD));
+            }
+        bound = std::min(1.0, 2.0 * bound);
+        autoBound_[static_cast<std::size_t>(f)] = bound;
+        if (bound > limit) {
+            autoAccurate_[static_cast<std::size_t>(f)] = 1;
+            ++autoCount_;
+        }
+    }
+}
+
+} // namespace dispmap

@@ -1,0 +1,127 @@
+#pragma once
+// Normals of the base and the displaced surface (Nießner & Loop 2013, §5.1, §5.2, §5.4;
+// notes/algorithms.md §4).
+//
+//   f = s + N D,   f_u = s_u + N_u D + N D_u,   f_v likewise,   N_f = f_u x f_v / |f_u x f_v|
+//
+// Accurate normals keep the Weingarten term N_u D (§5.1); approximate normals drop it (Blinn,
+// §5.2). N_u, N_v come from the Weingarten equations (do Carmo §3-3), which give the
+// derivatives of the unit normal directly:
+//   N_u = [(fF - eG) s_u + (eF - fE) s_v] / (EG - F^2),   N_v = [(gF - fG) s_u + (fF - gE) s_v] / (EG - F^2).
+// The paper then applies N_u <- (N*_u - N (N*_u . N)) / |N*| to the Weingarten result; that
+// step belongs to the derivative of the unnormalised normal N* = s_u x s_v (the cross route,
+// dmNormalDerivCross below), and applied to the Weingarten result it would divide a unit-normal
+// derivative by |N*| once more. The tests check both routes against finite differences.
+//
+// Numerics. EG - F^2 is evaluated as |s_u x s_v|^2, the same number without the cancellation
+// of the dot-product form, and bounded below by (sinMin |s_u| |s_v|)^2: where the angle between
+// s_u and s_v falls under asin(sinMin) the Weingarten term is damped, never amplified further
+// (a near-singular parameterisation only amplifies rounding there; the true N_u stays bounded
+// by the curvature). Where s_u x s_v vanishes the normal falls back to the first-order Taylor
+// term n_u + n_v (as OpenSubdiv does), then to the caller's fallback; N_u = N_v = 0 there.
+// No kernel here returns NaN for finite input.
+#include "dispmap/kernels/sum.h"
+#include "dispmap/kernels/prelude.h"
+
+namespace dispmap::kern {
+// dispmap:glsl-begin double
+// v / |v|, or `fallback` where |v|^2 is zero (or underflows).
+DM_TFUNC rvec3 dmSafeNormalize(rvec3 v, rvec3 fallback) {
+    real l2 = dmDot3(v, v);
+    if (l2 > real(0)) {
+        return v / sqrt(l2);
+    }
+    return fallback;
+}
+
+// The unit normal of s from its first derivatives, with the degenerate fallbacks described
+// above (second derivatives are needed only there).
+DM_TFUNC rvec3 dmBaseNormal(rvec3 su, rvec3 sv, rvec3 suu, rvec3 suv, rvec3 svv, rvec3 fallback) {
+    rvec3 taylor = (cross(suu, sv) + cross(su, suv)) + (cross(suv, sv) + cross(su, svv));
+    return dmSafeNormalize(cross(su, sv), dmSafeNormalize(taylor, fallback));
+}
+
+// Weingarten equations (§5.1): N_u and N_v of the unit normal N of s. sinMin bounds the
+// first fundamental form below (see the header comment); 1e-3 in float, 1e-7 in double.
+DM_TFUNC void dmNormalDerivWeingarten(rvec3 su, rvec3 sv, rvec3 suu, rvec3 suv, rvec3 svv, rvec3 N, real sinMin,
+                                      DM_OUT(rvec3) Nu, DM_OUT(rvec3) Nv) {
+    rvec3 n = cross(su, sv);
+    real E = dmDot3(su, su);
+    real F = dmDot3(su, sv);
+    real G = dmDot3(sv, sv);
+    real det = max(dmDot3(n, n), (sinMin * sinMin) * (E * G));
+    real e = dmDot3(N, suu);
+    real f = dmDot3(N, suv);
+    real g = dmDot3(N, svv);
+    if (det > real(0)) {
+        Nu = (su * (f * F - e * G) + sv * (e * F - f * E)) / det;
+        Nv = (su * (g * F - f * G) + sv * (f * F - g * E)) / det;
+    } else {
+        Nu = rvec3(real(0));
+        Nv = rvec3(real(0));
+    }
+}
+
+// The cross-product route (notes/algorithms.md §4, OpenSubdiv's osd/glslPatchCommon.glsl):
+// n = s_u x s_v, n_u = s_uu x s_v + s_u x s_uv, N_u = (n_u - N (N . n_u)) / |n|. Used as the
+// independent check of the Weingarten route; |n| is bounded below as there.
+DM_TFUNC void dmNormalDerivCross(rvec3 su, rvec3 sv, rvec3 suu, rvec3 suv, rvec3 svv, rvec3 N, real sinMin,
+                                 DM_OUT(rvec3) Nu, DM_OUT(rvec3) Nv) {
+    rvec3 n = cross(su, sv);
+    real len = sqrt(max(dmDot3(n, n), (sinMin * sinMin) * (dmDot3(su, su) * dmDot3(sv, sv))));
+    rvec3 nu = cross(suu, sv) + cross(su, suv);
+    rvec3 nv = cross(suv, sv) + cross(su, svv);
+    if (len > real(0)) {
+        Nu = (nu - N * dmDot3(N, nu)) / len;
+        Nv = (nv - N * dmDot3(N, nv)) / len;
+    } else {
+        Nu = rvec3(real(0));
+        Nv = rvec3(real(0));
+    }
+}
+
+// Approximate displaced frame (§5.2): f_u = s_u + N D_u, f_v = s_v + N D_v, with
+// d1 = (D, D_u, D_v) in the face's parameters. Returns the unit normal (N where the frame
+// degenerates, e.g. where a large displacement folds the surface onto itself).
+DM_TFUNC rvec3 dmDisplacedNormalApprox(rvec3 su, rvec3 sv, rvec3 N, rvec3 d1, DM_OUT(rvec3) fu, DM_OUT(rvec3) fv) {
+    fu = su + N * d1.y;
+    fv = sv + N * d1.z;
+    return dmSafeNormalize(cross(fu, fv), N);
+}
+
+// Accurate displaced frame (§5.1): f_u = s_u + N_u D + N D_u, f_v likewise.
+DM_TFUNC rvec3 dmDisplacedNormalAccurate(rvec3 su, rvec3 sv, rvec3 N, rvec3 Nu, rvec3 Nv, rvec3 d1,
+                                         DM_OUT(rvec3) fu, DM_OUT(rvec3) fv) {
+    fu = (su + Nu * d1.x) + N * d1.y;
+    fv = (sv + Nv * d1.x) + N * d1.z;
+    return dmSafeNormalize(cross(fu, fv), N);
+}
+
+// Bound on the sine of the angle between the approximate and the accurate displaced normal
+// at one point: with the approximate frame (a_u, a_v), the Weingarten term W = D (N_u, N_v)
+// and w = |W|_F, A = sqrt(|a_u|^2 + |a_v|^2), the accurate cross product differs from a_u x a_v
+// by at most w A + w^2 / 2, so sin(angle) <= (w A + w^2 / 2) / |a_u x a_v|. Returns that ratio
+// (>= 1 means no bound: the approximate normal may be anything). |D| is passed separately so
+// that a caller can bound it over a whole tile.
+DM_TFUNC real dmWeingartenAngleBound(rvec3 au, rvec3 av, rvec3 Nu, rvec3 Nv, real absD) {
+    real w = absD * sqrt(dmDot3(Nu, Nu) + dmDot3(Nv, Nv));
+    real A = sqrt(dmDot3(au, au) + dmDot3(av, av));
+    rvec3 n = cross(au, av);
+    real num = w * A + real(0.5) * w * w;
+    real den = sqrt(dmDot3(n, n));
+    if (num < den) {
+        return num / den;
+    }
+    return real(1);
+}
+
+// §5.4: near an extraordinary vertex s_u and s_v are not consistently defined, so the normal
+// blends bilinearly towards the limit normal there. evNormal is the sum over the patch's
+// extraordinary corners of (bilinear weight x limit normal), evWeight the sum of those
+// weights (1 at an extraordinary vertex, 0 at the other corners).
+DM_TFUNC rvec3 dmBlendLimitNormal(rvec3 n, rvec3 evNormal, real evWeight) {
+    return dmSafeNormalize(evNormal + n * (real(1) - evWeight), n);
+}
+// dispmap:glsl-end
+} // namespace dispmap::kern
+#include "dispmap/kernels/prelude_end.h"
