@@ -130,6 +130,8 @@ int main(int argc, char** argv) {
     auto* benchCmd = app.add_subcommand("bench", "mip accuracy table and timings (Google Benchmark flags pass through)");
     std::string csv;
     benchCmd->add_option("--csv", csv, "also write the mip table as CSV");
+    std::string normalsCsv;
+    benchCmd->add_option("--normals-csv", normalsCsv, "also write the normals table as CSV");
     benchCmd->allow_extras();
     ParityArgs pa;
     auto* parityCmd = app.add_subcommand("parity", "run every kernel in a compute shader and in C++, compare");
@@ -147,6 +149,9 @@ int main(int argc, char** argv) {
         if (*parityCmd) return runParity(pa);
         if (*benchCmd) {
             figures::printMipTable(std::cout, csv);
+            std::cout << "\n";
+            figures::printNormalTable(std::cout, normalsCsv);
+            std::cout << "\n";
             return figures::runBenchmarks(benchCmd->remaining());
         }
     } catch (const dispmap::Error& e) {

@@ -2,12 +2,16 @@
 
 #include <benchmark/benchmark.h>
 
+#include "dispmap/displaced_surface.h"
+
 #include <chrono>
 #include <cmath>
 #include <fstream>
 #include <iomanip>
 #include <map>
 #include <random>
+#include <sstream>
+#include <memory>
 #include <vector>
 
 namespace dispmap::figures {
@@ -161,6 +165,172 @@ void printMipTable(std::ostream& out, const std::string& csvPath) {
                     csv << data << "," << toString(f) << "," << m << "," << (64 >> m) << "," << rms << "," << mx / refRms
                         << "," << best << "\n";
             }
+        }
+    }
+}
+
+// ---- What accurate normals cost: base surface vs displaced, approximate / accurate / auto ----
+namespace {
+// A torus cage of 8 x 6 quads (radii 2 and 0.6): curvature up to 1 / 0.6 of the minor circle,
+// with a displacement of amplitude up to 0.12 at 3 cycles per face: |D| kappa up to about 0.2.
+ControlMesh torusMesh() {
+    std::string obj;
+    const int n = 8, m = 6;
+    const double tau = 6.283185307179586;
+    for (int j = 0; j < m; ++j)
+        for (int i = 0; i < n; ++i) {
+            const double a = tau * i / n, b = tau * j / m, r = 2 + 0.6 * std::cos(b);
+            obj += "v " + std::to_string(r * std::cos(a)) + " " + std::to_string(r * std::sin(a)) + " " +
+                   std::to_string(0.6 * std::sin(b)) + "\n";
+        }
+    for (int j = 0; j < m; ++j)
+        for (int i = 0; i < n; ++i) {
+            auto id = [&](int a, int b) { return std::to_string((b % m) * n + (a % n) + 1); };
+            obj += "f " + id(i, j) + " " + id(i + 1, j) + " " + id(i + 1, j + 1) + " " + id(i, j + 1) + "\n";
+        }
+    return ControlMesh::fromObjText(obj, "torus 8x6");
+}
+double torusDisplacement(int face, double u, double v) {
+    // Large on one side of the torus, fading to nothing on the other (the angle around the
+    // main circle is (face % 8 + u) / 8 turns): auto mode should spend the Weingarten term
+    // on that side only.
+    const double tau = 6.283185307179586, a = tau * (face % 8 + u) / 8.0;
+    const double amplitude = 0.12 * std::pow(0.5 + 0.5 * std::cos(a), 3.0);
+    return amplitude * std::sin(tau * 3 * u + 0.7 * face) * std::cos(tau * 3 * v);
+}
+
+double angleBetween(glm::dvec3 a, glm::dvec3 b) {
+    // atan2 of |a x b| and a . b: accurate for small angles too.
+    return std::atan2(glm::length(glm::cross(a, b)), glm::dot(a, b));
+}
+
+struct NormalRow {
+    std::string scene, precision, variant;
+    double ns = 0, ratio = 1, meanDeg = 0, maxDeg = 0;
+};
+
+// One variant of the table: the base surface alone (ds == nullptr), or a displaced surface
+// evaluated in a mode.
+struct NormalVariant {
+    std::string name;
+    const DisplacedSurface* ds;
+    NormalMode mode;
+    int ratioTo; ///< index of the variant this one's time is divided by
+};
+
+template <typename real>
+void timeNormals(const std::string& sceneName, const BaseSurface& base, const DisplacedSurface& reference,
+                 const std::vector<NormalVariant>& variants, const std::vector<int>& faces,
+                 const std::vector<glm::dvec2>& uv, std::vector<NormalRow>& rows) {
+    const std::size_t n = uv.size();
+    std::vector<glm::dvec3> ref(n);
+    for (std::size_t i = 0; i < n; ++i)
+        ref[i] = reference.evaluate<double>(faces[i], uv[i].x, uv[i].y, NormalMode::Accurate).normal;
+    std::vector<glm::vec<2, real>> p(n);
+    for (std::size_t i = 0; i < n; ++i) p[i] = glm::vec<2, real>(uv[i]);
+    std::vector<glm::vec<3, real>> nrm(n), pos(n);
+    auto run = [&](const NormalVariant& v) {
+        const auto t0 = std::chrono::steady_clock::now();
+        for (std::size_t i = 0; i < n; ++i) {
+            if (!v.ds) {
+                const BaseSample<real> s = base.evaluate<real>(faces[i], p[i].x, p[i].y, false);
+                const glm::vec<3, real> z(0);
+                nrm[i] = kern::dmBaseNormal(s.du, s.dv, z, z, z, glm::vec<3, real>(0, 0, 1));
+                pos[i] = s.p;
+            } else {
+                const SurfaceSample<real> r = v.ds->evaluate<real>(faces[i], p[i].x, p[i].y, v.mode);
+                nrm[i] = r.normal;
+                pos[i] = r.position;
+            }
+        }
+        benchmark::DoNotOptimize(nrm.data());
+        benchmark::DoNotOptimize(pos.data());
+        return std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - t0).count() / double(n);
+    };
+    std::vector<double> best(variants.size(), 1e300);
+    for (int round = 0; round < 15; ++round) // interleaved, best of 15: the machine is shared
+        for (std::size_t v = 0; v < variants.size(); ++v) best[v] = std::min(best[v], run(variants[v]));
+    for (std::size_t v = 0; v < variants.size(); ++v) {
+        run(variants[v]);
+        NormalRow r{sceneName, sizeof(real) == 4 ? "float" : "double", variants[v].name, best[v],
+                    best[v] / best[static_cast<std::size_t>(variants[v].ratioTo)], 0, 0};
+        for (std::size_t i = 0; i < n; ++i) {
+            const double a = angleBetween(glm::dvec3(nrm[i]), ref[i]) * 57.29577951308232;
+            r.meanDeg += a / double(n);
+            r.maxDeg = std::max(r.maxDeg, a);
+        }
+        rows.push_back(r);
+    }
+}
+} // namespace
+
+void printNormalTable(std::ostream& out, const std::string& csvPath) {
+    std::ofstream csv;
+    if (!csvPath.empty()) {
+        csv.open(csvPath);
+        if (!csv) throw FileError(csvPath + ": cannot write");
+        csv << "scene,precision,variant,ns_per_eval,ratio,mean_error_deg,max_error_deg\n";
+    }
+    struct Scene {
+        std::string name;
+        ControlMesh mesh;
+        DisplacementFunction d;
+    };
+    std::vector<Scene> scenes;
+    scenes.push_back({"box cage (valence 3, 5, a pentagon, a triangle), |D| <= 0.07, size 2", defaultMesh(), defaultDisplacement});
+    scenes.push_back({"torus 8 x 6 (radii 2, 0.6), |D| <= 0.12 on one side, ~0 on the other", torusMesh(), torusDisplacement});
+    const double tolerances[2] = {2.0, 6.0}; // degrees, auto mode
+    out << "Normals: what accuracy costs (CPU, one thread, k = 5 tiles; ns per evaluation of position and normal,\n"
+        << "  best of 15 interleaved rounds over 4096 random (face, u, v); error: angle to the double-precision\n"
+        << "  accurate normal (the base row: the error of not displacing at all); ratio: approximate / base,\n"
+        << "  accurate and auto / approximate)\n";
+    std::vector<NormalRow> rows;
+    for (const Scene& sc : scenes) {
+        const BaseSurface base(sc.mesh);
+        const TileSet ts = buildTiles(sc.mesh, uniformTileSizes(sc.mesh, 5), sc.d);
+        std::vector<std::unique_ptr<DisplacedSurface>> surfaces;
+        for (double tol : tolerances) {
+            DisplacedSurfaceOptions o;
+            o.autoTolerance = tol / 57.29577951308232;
+            surfaces.push_back(std::make_unique<DisplacedSurface>(base, ts, o));
+        }
+        const DisplacedSurface& ds = *surfaces[0];
+        std::vector<NormalVariant> variants = {{"base surface (s, N_s)", nullptr, NormalMode::Approximate, 0},
+                                               {"displaced, approximate", &ds, NormalMode::Approximate, 0},
+                                               {"displaced, accurate", &ds, NormalMode::Accurate, 1}};
+        for (std::size_t t = 0; t < surfaces.size(); ++t) {
+            std::ostringstream name;
+            name << "displaced, auto " << tolerances[t] << " deg";
+            variants.push_back({name.str(), surfaces[t].get(), NormalMode::Auto, 1});
+        }
+        std::mt19937 rng(7);
+        std::uniform_real_distribution<double> U(0, 1);
+        std::vector<int> faces;
+        std::vector<glm::dvec2> uv;
+        for (int i = 0; i < 4096; ++i) {
+            int f;
+            do f = int(rng() % unsigned(base.faceCount()));
+            while (base.isHole(f));
+            faces.push_back(f);
+            uv.emplace_back(U(rng), U(rng));
+        }
+        const std::size_t first = rows.size();
+        timeNormals<float>(sc.name, base, ds, variants, faces, uv, rows);
+        timeNormals<double>(sc.name, base, ds, variants, faces, uv, rows);
+        out << "  " << sc.name << ": " << base.faceCount() << " faces; auto evaluates";
+        for (std::size_t t = 0; t < surfaces.size(); ++t)
+            out << (t ? "," : "") << " " << surfaces[t]->autoAccurateCount() << " accurately at " << tolerances[t] << " deg";
+        out << "\n";
+        for (std::size_t i = first; i < rows.size(); ++i) {
+            const NormalRow& r = rows[i];
+            out << "    " << std::left << std::setw(7) << r.precision << std::setw(24) << r.variant << std::right
+                << std::fixed << std::setprecision(1) << std::setw(8) << r.ns << " ns" << std::setprecision(2)
+                << std::setw(7) << r.ratio << "x" << std::scientific << std::setprecision(2) << "   error mean "
+                << r.meanDeg << " deg, max " << r.maxDeg << " deg\n"
+                << std::defaultfloat;
+            if (csv)
+                csv << '"' << r.scene << "\"," << r.precision << "," << r.variant << "," << r.ns << "," << r.ratio << ","
+                    << r.meanDeg << "," << r.maxDeg << "\n";
         }
     }
 }

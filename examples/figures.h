@@ -16,6 +16,11 @@ void printTileStats(std::ostream& out, const std::string& label, const TileSet& 
 /// For Haar and B-wavelet mips: error of each level against the finest level, next to the
 /// pyramid build time. Also writes `csvPath` if not empty.
 void printMipTable(std::ostream& out, const std::string& csvPath);
+/// Normals table: ns per evaluation of the base surface alone, displaced with approximate,
+/// accurate and auto normals (auto at two tolerances; float and double), each with its angular
+/// error against the double-precision accurate normal, on two scenes; ratios from the same run. Also writes
+/// `csvPath` if not empty.
+void printNormalTable(std::ostream& out, const std::string& csvPath);
 /// Runs the registered benchmarks with Google Benchmark's flags (e.g. --benchmark_filter=...).
 int runBenchmarks(const std::vector<std::string>& flags);
 } // namespace dispmap::figures

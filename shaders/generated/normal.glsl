@@ -15,7 +15,7 @@
 DM_TFUNC rvec3 dmSafeNormalize(rvec3 v, rvec3 fallback) {
     real l2 = dmDot3(v, v);
     if (l2 > real(0)) {
-        return v / sqrt(l2);
+        return v * (real(1) / sqrt(l2));
     }
     return fallback;
 }
@@ -23,8 +23,13 @@ DM_TFUNC rvec3 dmSafeNormalize(rvec3 v, rvec3 fallback) {
 // The unit normal of s from its first derivatives, with the degenerate fallbacks described
 // above (second derivatives are needed only there).
 DM_TFUNC rvec3 dmBaseNormal(rvec3 su, rvec3 sv, rvec3 suu, rvec3 suv, rvec3 svv, rvec3 fallback) {
+    rvec3 n = cross(su, sv);
+    real l2 = dmDot3(n, n);
+    if (l2 > real(0)) {
+        return n * (real(1) / sqrt(l2));
+    }
     rvec3 taylor = (cross(suu, sv) + cross(su, suv)) + (cross(suv, sv) + cross(su, svv));
-    return dmSafeNormalize(cross(su, sv), dmSafeNormalize(taylor, fallback));
+    return dmSafeNormalize(taylor, fallback);
 }
 
 // Weingarten equations (§5.1): N_u and N_v of the unit normal N of s. sinMin bounds the
@@ -83,18 +88,15 @@ DM_TFUNC rvec3 dmDisplacedNormalAccurate(rvec3 su, rvec3 sv, rvec3 N, rvec3 Nu, 
     return dmSafeNormalize(cross(fu, fv), N);
 }
 
-// Bound on the sine of the angle between the approximate and the accurate displaced normal
-// at one point: with the approximate frame (a_u, a_v), the Weingarten term W = D (N_u, N_v)
-// and w = |W|_F, A = sqrt(|a_u|^2 + |a_v|^2), the accurate cross product differs from a_u x a_v
-// by at most w A + w^2 / 2, so sin(angle) <= (w A + w^2 / 2) / |a_u x a_v|. Returns that ratio
-// (>= 1 means no bound: the approximate normal may be anything). |D| is passed separately so
-// that a caller can bound it over a whole tile.
-DM_TFUNC real dmWeingartenAngleBound(rvec3 au, rvec3 av, rvec3 Nu, rvec3 Nv, real absD) {
-    real w = absD * sqrt(dmDot3(Nu, Nu) + dmDot3(Nv, Nv));
-    real A = sqrt(dmDot3(au, au) + dmDot3(av, av));
-    rvec3 n = cross(au, av);
-    real num = w * A + real(0.5) * w * w;
-    real den = sqrt(dmDot3(n, n));
+// Sine of the angle between the approximate displaced normal (frame a_u, a_v) and the one
+// with the Weingarten term D (N_u, N_v) added, i.e. the accurate normal for that D: how far
+// the approximation is off at one point. 1 where either frame degenerates (no bound).
+DM_TFUNC real dmWeingartenAngleSine(rvec3 au, rvec3 av, rvec3 Nu, rvec3 Nv, real D) {
+    rvec3 n1 = cross(au, av);
+    rvec3 n2 = cross(au + Nu * D, av + Nv * D);
+    real den = sqrt(dmDot3(n1, n1)) * sqrt(dmDot3(n2, n2));
+    rvec3 c = cross(n1, n2);
+    real num = sqrt(dmDot3(c, c));
     if (num < den) {
         return num / den;
     }
@@ -124,7 +126,7 @@ DM_TFUNC rvec3 dmBlendLimitNormal(rvec3 n, rvec3 evNormal, real evWeight) {
 DM_TFUNC rvec3 dmSafeNormalize(rvec3 v, rvec3 fallback) {
     real l2 = dmDot3(v, v);
     if (l2 > real(0)) {
-        return v / sqrt(l2);
+        return v * (real(1) / sqrt(l2));
     }
     return fallback;
 }
@@ -133,10 +135,15 @@ DM_TFUNC rvec3 dmSafeNormalize(rvec3 v, rvec3 fallback) {
 // The unit normal of s from its first derivatives, with the degenerate fallbacks described
 // above (second derivatives are needed only there).
 DM_TFUNC rvec3 dmBaseNormal(rvec3 su, rvec3 sv, rvec3 suu, rvec3 suv, rvec3 svv, rvec3 fallback) {
+    rvec3 n = cross(su, sv);
+    real l2 = dmDot3(n, n);
+    if (l2 > real(0)) {
+        return n * (real(1) / sqrt(l2));
+    }
     rvec3 taylor = (cross(suu, sv) + cross(su, suv)) + (cross(suv, sv) + cross(su, svv));
-    return dmSafeNormalize(cross(su, sv), dmSafeNormalize(taylor, fallback));
+    return dmSafeNormalize(taylor, fallback);
 }
-#line 43 "include/dispmap/kernels/normal.h"
+#line 48 "include/dispmap/kernels/normal.h"
 
 // Weingarten equations (§5.1): N_u and N_v of the unit normal N of s. sinMin bounds the
 // first fundamental form below (see the header comment); 1e-3 in float, 1e-7 in double.
@@ -158,7 +165,7 @@ DM_TFUNC void dmNormalDerivWeingarten(rvec3 su, rvec3 sv, rvec3 suu, rvec3 suv, 
         Nv = rvec3(real(0));
     }
 }
-#line 64 "include/dispmap/kernels/normal.h"
+#line 69 "include/dispmap/kernels/normal.h"
 
 // The cross-product route (notes/algorithms.md §4, OpenSubdiv's osd/glslPatchCommon.glsl):
 // n = s_u x s_v, n_u = s_uu x s_v + s_u x s_uv, N_u = (n_u - N (N . n_u)) / |n|. Used as the
@@ -177,7 +184,7 @@ DM_TFUNC void dmNormalDerivCross(rvec3 su, rvec3 sv, rvec3 suu, rvec3 suv, rvec3
         Nv = rvec3(real(0));
     }
 }
-#line 82 "include/dispmap/kernels/normal.h"
+#line 87 "include/dispmap/kernels/normal.h"
 
 // Approximate displaced frame (§5.2): f_u = s_u + N D_u, f_v = s_v + N D_v, with
 // d1 = (D, D_u, D_v) in the face's parameters. Returns the unit normal (N where the frame
@@ -187,7 +194,7 @@ DM_TFUNC rvec3 dmDisplacedNormalApprox(rvec3 su, rvec3 sv, rvec3 N, rvec3 d1, DM
     fv = sv + N * d1.z;
     return dmSafeNormalize(cross(fu, fv), N);
 }
-#line 91 "include/dispmap/kernels/normal.h"
+#line 96 "include/dispmap/kernels/normal.h"
 
 // Accurate displaced frame (§5.1): f_u = s_u + N_u D + N D_u, f_v likewise.
 DM_TFUNC rvec3 dmDisplacedNormalAccurate(rvec3 su, rvec3 sv, rvec3 N, rvec3 Nu, rvec3 Nv, rvec3 d1,
@@ -196,26 +203,23 @@ DM_TFUNC rvec3 dmDisplacedNormalAccurate(rvec3 su, rvec3 sv, rvec3 N, rvec3 Nu, 
     fv = (sv + Nv * d1.x) + N * d1.z;
     return dmSafeNormalize(cross(fu, fv), N);
 }
-#line 99 "include/dispmap/kernels/normal.h"
+#line 104 "include/dispmap/kernels/normal.h"
 
-// Bound on the sine of the angle between the approximate and the accurate displaced normal
-// at one point: with the approximate frame (a_u, a_v), the Weingarten term W = D (N_u, N_v)
-// and w = |W|_F, A = sqrt(|a_u|^2 + |a_v|^2), the accurate cross product differs from a_u x a_v
-// by at most w A + w^2 / 2, so sin(angle) <= (w A + w^2 / 2) / |a_u x a_v|. Returns that ratio
-// (>= 1 means no bound: the approximate normal may be anything). |D| is passed separately so
-// that a caller can bound it over a whole tile.
-DM_TFUNC real dmWeingartenAngleBound(rvec3 au, rvec3 av, rvec3 Nu, rvec3 Nv, real absD) {
-    real w = absD * sqrt(dmDot3(Nu, Nu) + dmDot3(Nv, Nv));
-    real A = sqrt(dmDot3(au, au) + dmDot3(av, av));
-    rvec3 n = cross(au, av);
-    real num = w * A + real(0.5) * w * w;
-    real den = sqrt(dmDot3(n, n));
+// Sine of the angle between the approximate displaced normal (frame a_u, a_v) and the one
+// with the Weingarten term D (N_u, N_v) added, i.e. the accurate normal for that D: how far
+// the approximation is off at one point. 1 where either frame degenerates (no bound).
+DM_TFUNC real dmWeingartenAngleSine(rvec3 au, rvec3 av, rvec3 Nu, rvec3 Nv, real D) {
+    rvec3 n1 = cross(au, av);
+    rvec3 n2 = cross(au + Nu * D, av + Nv * D);
+    real den = sqrt(dmDot3(n1, n1)) * sqrt(dmDot3(n2, n2));
+    rvec3 c = cross(n1, n2);
+    real num = sqrt(dmDot3(c, c));
     if (num < den) {
         return num / den;
     }
     return real(1);
 }
-#line 117 "include/dispmap/kernels/normal.h"
+#line 119 "include/dispmap/kernels/normal.h"
 
 // §5.4: near an extraordinary vertex s_u and s_v are not consistently defined, so the normal
 // blends bilinearly towards the limit normal there. evNormal is the sum over the patch's
