@@ -10,6 +10,7 @@ packages=(
   libtinyobjloader-dev  # OBJ reading, including OpenSubdiv's crease/corner/hole tag lines
   libpng-dev            # 16-bit greyscale height images
   libcli11-dev          # command-line parsing of the dispmap program
+  nlohmann-json3-dev    # JSON output of `dispmap eval` (and scene files)
   catch2                # unit tests (Catch2 v2) under CTest
   libbenchmark-dev      # Google Benchmark for the figures
   glslang-tools         # glslangValidator: every generated GLSL include and shader compiled to SPIR-V

@@ -1,14 +1,20 @@
 // dispmap: the command-line program.
 //   dispmap demo                      build the embedded default tile set, print its figures
 //   dispmap tiles --mesh M.obj ...    build (or --load) a tile set, print statistics, save it
+//   dispmap eval --mesh M.obj --at f,u,v   the displaced surface at points, as JSON
 //   dispmap bench [gbench args]       the benchmark table and the timings
 //   dispmap parity                    every kernel on the GPU (lavapipe by default) against C++
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
+#include <cmath>
 #include <iostream>
+#include <sstream>
 #include <memory>
 #include <vector>
 
+#include "dispmap/displaced_surface.h"
+#include "dispmap/file_io.h"
 #include "dispmap/height_image.h"
 #include "dispmap/tile_builder.h"
 #include "dispmap/tile_file.h"
@@ -32,26 +38,35 @@ int demo(bool quick) {
     return figures::runBenchmarks(flags);
 }
 
-struct TilesArgs {
-    std::string mesh, height, load, output, filter = "haar", function = "waves";
+// The displacement of a control mesh, as `tiles`, `eval` and `tessellate` take it: a height
+// image, a procedural function, or a saved tile file.
+struct SourceArgs {
+    std::string mesh, height, load, filter = "haar", function = "waves";
     int k = 4;
     double scale = 0.1, offset = 0.0;
     bool wrap = false;
 };
 
-int tiles(const TilesArgs& a) {
+void addSourceOptions(CLI::App* cmd, SourceArgs& a) {
+    cmd->add_option("--mesh", a.mesh, "control mesh (OBJ, OpenSubdiv tags)");
+    cmd->add_option("--height", a.height, "UV-mapped height image (8/16-bit greyscale PNG)");
+    cmd->add_option("--scale", a.scale, "displacement = offset + scale * height (or the function's amplitude)");
+    cmd->add_option("--offset", a.offset, "displacement offset");
+    cmd->add_flag("--wrap", a.wrap, "wrap texture coordinates outside [0, 1]");
+    cmd->add_option("--function", a.function, "procedural source when no image: waves, zero");
+    cmd->add_option("-k,--size", a.k, "log2 tile size of quads (sub-faces of non-quads get k - 1)");
+    cmd->add_option("--filter", a.filter, "mip filter: haar, bwavelet");
+    cmd->add_option("--load", a.load, "read a tile file instead (with --mesh: check it matches)");
+}
+
+// Builds (or loads) the tile set of `mesh` that `a` describes.
+TileSet makeTiles(const ControlMesh& mesh, const SourceArgs& a, BuildReport* report) {
     if (!a.load.empty()) {
         TileSet ts = loadTiles(a.load);
-        if (!a.mesh.empty()) {
-            ControlMesh mesh = ControlMesh::fromObjFile(a.mesh);
-            if (topologyHash(mesh) != ts.topologyHash || mesh.ptexFaceCount() != ts.tileCount())
-                throw ArgumentError(a.load + " was built for another mesh than " + a.mesh);
-        }
-        figures::printTileStats(std::cout, "Tile file " + a.load + ":", ts, nullptr);
-        return 0;
+        if (topologyHash(mesh) != ts.topologyHash || mesh.ptexFaceCount() != ts.tileCount())
+            throw ArgumentError(a.load + " was built for another mesh than " + a.mesh);
+        return ts;
     }
-    if (a.mesh.empty()) throw ArgumentError("tiles: give --mesh (with --height or --function) or --load");
-    ControlMesh mesh = ControlMesh::fromObjFile(a.mesh);
     DisplacementFunction source;
     if (!a.height.empty()) {
         auto img = std::make_shared<HeightImage>(readHeightPng(a.height));
@@ -62,7 +77,7 @@ int tiles(const TilesArgs& a) {
     } else if (a.function == "zero") {
         source = [](int, double, double) { return 0.0; };
     } else {
-        throw ArgumentError("tiles: unknown --function '" + a.function + "' (waves, zero)");
+        throw ArgumentError("unknown --function '" + a.function + "' (waves, zero)");
     }
     BuildOptions o;
     if (a.filter == "haar")
@@ -70,16 +85,129 @@ int tiles(const TilesArgs& a) {
     else if (a.filter == "bwavelet")
         o.filter = MipFilter::BWavelet;
     else
-        throw ArgumentError("tiles: unknown --filter '" + a.filter + "' (haar, bwavelet)");
+        throw ArgumentError("unknown --filter '" + a.filter + "' (haar, bwavelet)");
+    return buildTiles(mesh, uniformTileSizes(mesh, a.k), source, o, report);
+}
+
+ControlMesh loadMesh(const SourceArgs& a, const char* command) {
+    if (a.mesh.empty()) throw ArgumentError(std::string(command) + ": give --mesh");
+    return ControlMesh::fromObjFile(a.mesh);
+}
+
+int tiles(const SourceArgs& a, const std::string& output) {
+    if (!a.load.empty() && a.mesh.empty()) {
+        TileSet ts = loadTiles(a.load);
+        figures::printTileStats(std::cout, "Tile file " + a.load + ":", ts, nullptr);
+        return 0;
+    }
+    if (a.mesh.empty()) throw ArgumentError("tiles: give --mesh (with --height or --function) or --load");
+    ControlMesh mesh = ControlMesh::fromObjFile(a.mesh);
     BuildReport rep;
-    TileSet ts = buildTiles(mesh, uniformTileSizes(mesh, a.k), source, o, &rep);
-    figures::printTileStats(std::cout, "Tiles of " + a.mesh + ":", ts, &rep);
-    if (!a.output.empty()) {
-        saveTiles(ts, a.output);
-        std::cout << "  saved " << a.output << "\n";
+    TileSet ts = makeTiles(mesh, a, &rep);
+    figures::printTileStats(std::cout, (a.load.empty() ? "Tiles of " + a.mesh : "Tile file " + a.load) + ":", ts,
+                            a.load.empty() ? &rep : nullptr);
+    if (!output.empty()) {
+        saveTiles(ts, output);
+        std::cout << "  saved " << output << "\n";
     }
     return 0;
 }
+
+struct EvalArgs {
+    SourceArgs source;
+    std::vector<std::string> at;
+    int grid = 0, isolation = 4;
+    double autoToleranceDeg = 2.0, rho = kFinest;
+    bool single = false;
+    std::string output;
+};
+
+// (face, u, v) from "face,u,v".
+void parsePoint(const std::string& text, int& face, double& u, double& v) {
+    std::istringstream in(text);
+    char c1 = 0, c2 = 0;
+    if (!(in >> face >> c1 >> u >> c2 >> v) || c1 != ',' || c2 != ',' || !(in >> std::ws).eof())
+        throw ArgumentError("--at '" + text + "': expected face,u,v (e.g. 3,0.25,0.5)");
+}
+
+nlohmann::json vec(glm::dvec3 a) {
+    for (int i = 0; i < 3; ++i)
+        if (!std::isfinite(a[i])) throw Error("a non-finite value reached the output (a bug: please report)");
+    return nlohmann::json::array({a.x, a.y, a.z});
+}
+
+template <typename real> nlohmann::json evalPoint(const DisplacedSurface& ds, int f, double u, double v, double rho) {
+    const real ru = static_cast<real>(u), rv = static_cast<real>(v), rr = static_cast<real>(rho);
+    const BaseSample<real> b = ds.base().evaluate<real>(f, ru, rv, true);
+    const SurfaceSample<real> ap = ds.evaluate<real>(f, ru, rv, NormalMode::Approximate, rr);
+    const SurfaceSample<real> ac = ds.evaluate<real>(f, ru, rv, NormalMode::Accurate, rr);
+    const SurfaceSample<real> au = ds.evaluate<real>(f, ru, rv, NormalMode::Auto, rr);
+    nlohmann::json j;
+    j["face"] = f;
+    j["u"] = u;
+    j["v"] = v;
+    j["position"] = vec(ac.position);
+    j["displacement"] = {{"D", static_cast<double>(ac.displacement.x)},
+                         {"D_u", static_cast<double>(ac.displacement.y)},
+                         {"D_v", static_cast<double>(ac.displacement.z)}};
+    j["base"] = {{"position", vec(b.p)},   {"du", vec(b.du)},   {"dv", vec(b.dv)},
+                 {"duu", vec(b.duu)},      {"duv", vec(b.duv)}, {"dvv", vec(b.dvv)},
+                 {"normal", vec(ac.baseNormal)}, {"limitNormalWeight", static_cast<double>(b.evWeight)}};
+    j["normal"] = {{"approximate", vec(ap.normal)}, {"accurate", vec(ac.normal)}, {"auto", vec(au.normal)}};
+    j["du"] = {{"approximate", vec(ap.du)}, {"accurate", vec(ac.du)}};
+    j["dv"] = {{"approximate", vec(ap.dv)}, {"accurate", vec(ac.dv)}};
+    j["autoAccurate"] = au.accurate;
+    return j;
+}
+
+int eval(const EvalArgs& a) {
+    const ControlMesh mesh = loadMesh(a.source, "eval");
+    if (!(a.autoToleranceDeg >= 0.0) || !std::isfinite(a.autoToleranceDeg))
+        throw ArgumentError("eval: --auto-tolerance must be a finite angle >= 0 (degrees)");
+    if (std::isnan(a.rho)) throw ArgumentError("eval: --rho must be a number");
+    if (a.grid < 0 || a.grid > 1024) throw ArgumentError("eval: --grid must be in [0, 1024]");
+    if (a.at.empty() && a.grid == 0) throw ArgumentError("eval: give points with --at face,u,v or --grid N");
+    const TileSet ts = makeTiles(mesh, a.source, nullptr);
+    BaseSurfaceOptions bo;
+    bo.isolationLevel = a.isolation;
+    const BaseSurface base(mesh, bo);
+    DisplacedSurfaceOptions o;
+    o.autoTolerance = a.autoToleranceDeg * 3.14159265358979323846 / 180.0;
+    const DisplacedSurface ds(base, ts, o);
+    nlohmann::json out;
+    out["mesh"] = a.source.mesh;
+    out["ptexFaces"] = base.faceCount();
+    out["isolationLevel"] = a.isolation;
+    out["precision"] = a.single ? "float" : "double";
+    out["autoToleranceDegrees"] = a.autoToleranceDeg;
+    out["autoAccurateFaces"] = ds.autoAccurateCount();
+    nlohmann::json points = nlohmann::json::array();
+    auto one = [&](int f, double u, double v) {
+        points.push_back(a.single ? evalPoint<float>(ds, f, u, v, a.rho) : evalPoint<double>(ds, f, u, v, a.rho));
+    };
+    for (const std::string& p : a.at) {
+        int f = 0;
+        double u = 0, v = 0;
+        parsePoint(p, f, u, v);
+        one(f, u, v);
+    }
+    if (a.grid > 0)
+        for (int f = 0; f < base.faceCount(); ++f) {
+            if (base.isHole(f)) continue;
+            for (int j = 0; j < a.grid; ++j)
+                for (int i = 0; i < a.grid; ++i) one(f, (i + 0.5) / a.grid, (j + 0.5) / a.grid);
+        }
+    out["points"] = std::move(points);
+    const std::string text = out.dump(2) + "\n";
+    if (a.output.empty()) {
+        std::cout << text;
+    } else {
+        detail::writeFileAtomically(a.output, std::vector<unsigned char>(text.begin(), text.end()), "JSON output");
+        std::cout << "wrote " << out["points"].size() << " points to " << a.output << "\n";
+    }
+    return 0;
+}
+
 struct ParityArgs {
     parity::Options options;
     std::string device;
@@ -115,18 +243,22 @@ int main(int argc, char** argv) {
     bool quick = false;
     auto* demoCmd = app.add_subcommand("demo", "build the embedded default tile set and print its figures");
     demoCmd->add_flag("--quick", quick, "short benchmark runs");
-    TilesArgs ta;
+    SourceArgs ta;
+    std::string tilesOutput;
     auto* tilesCmd = app.add_subcommand("tiles", "build a tile set from a mesh and a displacement source");
-    tilesCmd->add_option("--mesh", ta.mesh, "control mesh (OBJ, OpenSubdiv tags)");
-    tilesCmd->add_option("--height", ta.height, "UV-mapped height image (8/16-bit greyscale PNG)");
-    tilesCmd->add_option("--scale", ta.scale, "displacement = offset + scale * height (or the function's amplitude)");
-    tilesCmd->add_option("--offset", ta.offset, "displacement offset");
-    tilesCmd->add_flag("--wrap", ta.wrap, "wrap texture coordinates outside [0, 1]");
-    tilesCmd->add_option("--function", ta.function, "procedural source when no image: waves, zero");
-    tilesCmd->add_option("-k,--size", ta.k, "log2 tile size of quads (sub-faces of non-quads get k - 1)");
-    tilesCmd->add_option("--filter", ta.filter, "mip filter: haar, bwavelet");
-    tilesCmd->add_option("-o,--output", ta.output, "write the tile file");
-    tilesCmd->add_option("--load", ta.load, "read a tile file instead (with --mesh: check it matches)");
+    addSourceOptions(tilesCmd, ta);
+    tilesCmd->add_option("-o,--output", tilesOutput, "write the tile file");
+    EvalArgs ea;
+    auto* evalCmd = app.add_subcommand("eval", "evaluate the displaced surface at (face, u, v): JSON with positions, "
+                                                "derivatives and the normal in each mode");
+    addSourceOptions(evalCmd, ea.source);
+    evalCmd->add_option("--at", ea.at, "a point: face,u,v (Ptex face id; repeat for more)");
+    evalCmd->add_option("--grid", ea.grid, "also N x N cell centres on every face");
+    evalCmd->add_option("--isolation", ea.isolation, "OpenSubdiv adaptive isolation level (1..10)");
+    evalCmd->add_option("--auto-tolerance", ea.autoToleranceDeg, "auto normals: accepted error in degrees");
+    evalCmd->add_option("--rho", ea.rho, "mip resolution to read (log2 of the level size; default: finest)");
+    evalCmd->add_flag("--float", ea.single, "evaluate in single precision (default: double)");
+    evalCmd->add_option("-o,--output", ea.output, "write the JSON here instead of standard output");
     auto* benchCmd = app.add_subcommand("bench", "mip accuracy table and timings (Google Benchmark flags pass through)");
     std::string csv;
     benchCmd->add_option("--csv", csv, "also write the mip table as CSV");
@@ -145,7 +277,8 @@ int main(int argc, char** argv) {
     CLI11_PARSE(app, argc, argv);
     try {
         if (*demoCmd) return demo(quick);
-        if (*tilesCmd) return tiles(ta);
+        if (*tilesCmd) return tiles(ta, tilesOutput);
+        if (*evalCmd) return eval(ea);
         if (*parityCmd) return runParity(pa);
         if (*benchCmd) {
             figures::printMipTable(std::cout, csv);
