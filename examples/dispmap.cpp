@@ -2,11 +2,13 @@
 //   dispmap demo                      build the embedded default tile set, print its figures
 //   dispmap tiles --mesh M.obj ...    build (or --load) a tile set, print statistics, save it
 //   dispmap eval --mesh M.obj --at f,u,v   the displaced surface at points, as JSON
+//   dispmap tessellate --mesh M.obj -o out.ply   a watertight triangle mesh of the displaced surface
 //   dispmap bench [gbench args]       the benchmark table and the timings
 //   dispmap parity                    every kernel on the GPU (lavapipe by default) against C++
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include <chrono>
 #include <cmath>
 #include <iostream>
 #include <sstream>
@@ -16,10 +18,12 @@
 #include "dispmap/displaced_surface.h"
 #include "dispmap/file_io.h"
 #include "dispmap/height_image.h"
+#include "dispmap/tessellator.h"
 #include "dispmap/tile_builder.h"
 #include "dispmap/tile_file.h"
 #include "dispmap/vulkan/context.h"
 #include "figures.h"
+#include "swim.h"
 #include "parity.h"
 
 using namespace dispmap;
@@ -32,6 +36,10 @@ int demo(bool quick) {
     figures::printTileStats(std::cout, "Default scene (embedded box with a pentagon and a triangle, k = 5):", ts, &rep);
     std::cout << "\n";
     figures::printMipTable(std::cout, "");
+    std::cout << "\n";
+    figures::printNormalTable(std::cout, "");
+    std::cout << "\n";
+    figures::printSwimFigure(std::cout, "");
     std::cout << "\nTimings (Google Benchmark" << (quick ? ", short runs" : "") << "):\n" << std::flush;
     std::vector<std::string> flags;
     if (quick) flags.push_back("--benchmark_min_time=0.05");
@@ -116,7 +124,7 @@ int tiles(const SourceArgs& a, const std::string& output) {
 struct EvalArgs {
     SourceArgs source;
     std::vector<std::string> at;
-    int grid = 0, isolation = 4;
+    int grid = 0, isolation = 6;
     double autoToleranceDeg = 2.0, rho = kFinest;
     bool single = false;
     std::string output;
@@ -208,6 +216,77 @@ int eval(const EvalArgs& a) {
     return 0;
 }
 
+struct TessellateArgs {
+    SourceArgs source;
+    std::string output, normals = "approximate", spacing = "fractional", mips = "off", eye;
+    double factor = 8, distance = 0, maxFactor = 64, autoToleranceDeg = 2.0;
+    int isolation = 6;
+};
+
+// "x,y,z" to a point.
+glm::dvec3 parseVec3(const std::string& text, const char* option) {
+    std::istringstream in(text);
+    glm::dvec3 p;
+    char c1 = 0, c2 = 0;
+    if (!(in >> p.x >> c1 >> p.y >> c2 >> p.z) || c1 != ',' || c2 != ',' || !(in >> std::ws).eof())
+        throw ArgumentError(std::string(option) + " '" + text + "': expected x,y,z");
+    return p;
+}
+
+int tessellateCommand(const TessellateArgs& a) {
+    const ControlMesh mesh = loadMesh(a.source, "tessellate");
+    if (a.output.empty()) throw ArgumentError("tessellate: give -o out.obj or out.ply");
+    const bool ply = a.output.size() > 4 && a.output.compare(a.output.size() - 4, 4, ".ply") == 0;
+    const bool obj = a.output.size() > 4 && a.output.compare(a.output.size() - 4, 4, ".obj") == 0;
+    if (!ply && !obj) throw ArgumentError("tessellate: -o must name a .obj or a .ply file");
+    TessellateOptions o;
+    if (a.normals == "approximate")
+        o.normals = NormalMode::Approximate;
+    else if (a.normals == "accurate")
+        o.normals = NormalMode::Accurate;
+    else if (a.normals == "auto")
+        o.normals = NormalMode::Auto;
+    else
+        throw ArgumentError("tessellate: unknown --normals '" + a.normals + "' (approximate, accurate, auto)");
+    if (a.spacing == "fractional")
+        o.spacing = Spacing::FractionalEven;
+    else if (a.spacing == "integer")
+        o.spacing = Spacing::Integer;
+    else
+        throw ArgumentError("tessellate: unknown --spacing '" + a.spacing + "' (fractional, integer)");
+    if (a.mips == "off")
+        o.mips = MipSelection::Off;
+    else if (a.mips == "tf")
+        o.mips = MipSelection::TessFactor;
+    else if (a.mips == "seed004")
+        o.mips = MipSelection::Seed004;
+    else
+        throw ArgumentError("tessellate: unknown --mips '" + a.mips + "' (off, tf, seed004)");
+    o.maxFactor = a.maxFactor;
+    const TileSet ts = makeTiles(mesh, a.source, nullptr);
+    BaseSurfaceOptions bo;
+    bo.isolationLevel = a.isolation;
+    const BaseSurface base(mesh, bo);
+    DisplacedSurfaceOptions dso;
+    if (!std::isfinite(a.autoToleranceDeg) || a.autoToleranceDeg < 0)
+        throw ArgumentError("tessellate: --auto-tolerance must be a finite angle >= 0 (degrees)");
+    dso.autoTolerance = a.autoToleranceDeg * 3.14159265358979323846 / 180.0;
+    const DisplacedSurface ds(base, ts, dso);
+    const TessFactors factors = a.eye.empty() ? uniformTessFactors(base, a.factor)
+                                              : distanceTessFactors(base, parseVec3(a.eye, "--eye"), a.distance);
+    const auto t0 = std::chrono::steady_clock::now();
+    const TriangleMesh m = tessellate(ds, factors, o);
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    if (ply)
+        writePly(m, a.output);
+    else
+        writeObj(m, a.output);
+    std::cout << "tessellated " << base.faceCount() << " faces into " << m.triangleCount() << " triangles, "
+              << m.vertexCount() << " vertices in " << ms << " ms (normals " << toString(o.normals) << ", spacing "
+              << toString(o.spacing) << ", mips " << toString(o.mips) << "); wrote " << a.output << "\n";
+    return 0;
+}
+
 struct ParityArgs {
     parity::Options options;
     std::string device;
@@ -259,10 +338,27 @@ int main(int argc, char** argv) {
     evalCmd->add_option("--rho", ea.rho, "mip resolution to read (log2 of the level size; default: finest)");
     evalCmd->add_flag("--float", ea.single, "evaluate in single precision (default: double)");
     evalCmd->add_option("-o,--output", ea.output, "write the JSON here instead of standard output");
+    TessellateArgs ts;
+    auto* tessCmd = app.add_subcommand("tessellate", "tessellate the displaced surface into a watertight triangle mesh "
+                                                      "(OBJ or PLY)");
+    addSourceOptions(tessCmd, ts.source);
+    tessCmd->add_option("-o,--output", ts.output, "out.obj or out.ply (binary)");
+    tessCmd->add_option("--factor", ts.factor, "uniform tessellation factor (segments per base edge)");
+    tessCmd->add_option("--eye", ts.eye, "x,y,z: distance-based factors c / |eye - vertex| instead (with --c)");
+    tessCmd->add_option("--c", ts.distance, "constant of the distance-based factors");
+    tessCmd->add_option("--max-factor", ts.maxFactor, "clamp of the factors (default 64, the hardware limit)");
+    tessCmd->add_option("--normals", ts.normals, "approximate, accurate or auto");
+    tessCmd->add_option("--auto-tolerance", ts.autoToleranceDeg, "auto normals: accepted error in degrees");
+    tessCmd->add_option("--spacing", ts.spacing, "fractional (continuous, like fractional_even) or integer");
+    tessCmd->add_option("--mips", ts.mips, "mip selection from the factor: off, tf (log2 TF, paper 6.2), seed004");
+    tessCmd->add_option("--isolation", ts.isolation, "OpenSubdiv adaptive isolation level (1..10)");
     auto* benchCmd = app.add_subcommand("bench", "mip accuracy table and timings (Google Benchmark flags pass through)");
     std::string csv;
     benchCmd->add_option("--csv", csv, "also write the mip table as CSV");
-    std::string normalsCsv;
+    std::string normalsCsv, isolationCsv, swimCsv, tessCsv;
+    benchCmd->add_option("--tessellation-csv", tessCsv, "also write the tessellation-factor table as CSV");
+    benchCmd->add_option("--swim-csv", swimCsv, "also write the swimming figure as CSV");
+    benchCmd->add_option("--isolation-csv", isolationCsv, "also write the isolation-level table as CSV");
     benchCmd->add_option("--normals-csv", normalsCsv, "also write the normals table as CSV");
     benchCmd->allow_extras();
     ParityArgs pa;
@@ -279,11 +375,18 @@ int main(int argc, char** argv) {
         if (*demoCmd) return demo(quick);
         if (*tilesCmd) return tiles(ta, tilesOutput);
         if (*evalCmd) return eval(ea);
+        if (*tessCmd) return tessellateCommand(ts);
         if (*parityCmd) return runParity(pa);
         if (*benchCmd) {
             figures::printMipTable(std::cout, csv);
             std::cout << "\n";
             figures::printNormalTable(std::cout, normalsCsv);
+            std::cout << "\n";
+            figures::printIsolationTable(std::cout, isolationCsv);
+            std::cout << "\n";
+            figures::printSwimFigure(std::cout, swimCsv);
+            std::cout << "\n";
+            figures::printTessellationTable(std::cout, tessCsv);
             std::cout << "\n";
             return figures::runBenchmarks(benchCmd->remaining());
         }

@@ -3,6 +3,7 @@
 #include <benchmark/benchmark.h>
 
 #include "dispmap/displaced_surface.h"
+#include "dispmap/tessellator.h"
 
 #include <chrono>
 #include <cmath>
@@ -333,6 +334,139 @@ void printNormalTable(std::ostream& out, const std::string& csvPath) {
                     << r.meanDeg << "," << r.maxDeg << "\n";
         }
     }
+}
+
+// ---- The isolation level: base-surface error near extraordinary vertices vs cost ----
+void printIsolationTable(std::ostream& out, const std::string& csvPath) {
+    std::ofstream csv;
+    if (!csvPath.empty()) {
+        csv.open(csvPath);
+        if (!csv) throw FileError(csvPath + ": cannot write");
+        csv << "isolation,patches,build_ms,ns_per_eval,max_position_error,max_normal_error_deg\n";
+    }
+    const ControlMesh mesh = defaultMesh();
+    BaseSurfaceOptions refOptions;
+    refOptions.isolationLevel = 10;
+    const BaseSurface ref(mesh, refOptions);
+    // Points in the corner quarter of every face that touches an extraordinary corner: where
+    // the end caps are (elsewhere every level gives the same B-spline patches).
+    std::vector<int> faces;
+    std::vector<glm::dvec2> uv;
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> U(0, 0.25);
+    for (int f = 0; f < ref.faceCount(); ++f)
+        for (int c = 0; c < 4; ++c) {
+            if (!ref.isExtraordinaryCorner(f, c)) continue;
+            for (int i = 0; i < 256; ++i) {
+                const double a = U(rng), b = U(rng);
+                faces.push_back(f);
+                uv.emplace_back(c == 1 || c == 2 ? 1 - a : a, c >= 2 ? 1 - b : b);
+            }
+        }
+    std::vector<glm::dvec3> refP(faces.size()), refN(faces.size());
+    for (std::size_t i = 0; i < faces.size(); ++i) {
+        const BaseSample<double> s = ref.evaluate<double>(faces[i], uv[i].x, uv[i].y, false);
+        refP[i] = s.p;
+        refN[i] = glm::normalize(glm::cross(s.du, s.dv));
+    }
+    out << "Isolation level (OpenSubdiv adaptive refinement; Gregory end caps below it): the base surface near\n"
+        << "  extraordinary vertices (default box cage, " << faces.size()
+        << " points in the corner quarters of faces at valence-3/5 and N-gon centres) against level 10;\n"
+        << "  position error relative to the cage size (2); build = refine + patch table + points, best of 3;\n"
+        << "  eval = s, s_u, s_v in double, best of 9\n"
+        << "  level  patches  build ms   ns/eval   max position err   max normal err (deg)\n";
+    for (int level = 1; level <= 8; ++level) {
+        BaseSurfaceOptions o;
+        o.isolationLevel = level;
+        double buildMs = 1e300;
+        std::unique_ptr<BaseSurface> bs;
+        for (int rep = 0; rep < 3; ++rep) {
+            const auto t0 = std::chrono::steady_clock::now();
+            bs = std::make_unique<BaseSurface>(mesh, o);
+            buildMs = std::min(buildMs, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+        }
+        double ns = 1e300, maxP = 0, maxN = 0;
+        std::vector<glm::dvec3> P(faces.size()), N(faces.size());
+        for (int rep = 0; rep < 9; ++rep) {
+            const auto t0 = std::chrono::steady_clock::now();
+            for (std::size_t i = 0; i < faces.size(); ++i) {
+                const BaseSample<double> s = bs->evaluate<double>(faces[i], uv[i].x, uv[i].y, false);
+                P[i] = s.p;
+                N[i] = glm::cross(s.du, s.dv);
+            }
+            benchmark::DoNotOptimize(P.data());
+            ns = std::min(ns, std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - t0).count() /
+                                  double(faces.size()));
+        }
+        for (std::size_t i = 0; i < faces.size(); ++i) {
+            maxP = std::max(maxP, glm::length(P[i] - refP[i]) / 2.0);
+            maxN = std::max(maxN, angleBetween(N[i], refN[i]) * 57.29577951308232);
+        }
+        const Far::PatchTable& t = bs->patchTable();
+        int patches = 0;
+        for (int a = 0; a < t.GetNumPatchArrays(); ++a) patches += t.GetNumPatches(a);
+        out << std::setw(7) << level << std::setw(9) << patches << std::fixed << std::setprecision(2) << std::setw(10)
+            << buildMs << std::setprecision(1) << std::setw(10) << ns << std::scientific << std::setprecision(2)
+            << std::setw(19) << maxP << std::setw(23) << maxN << std::defaultfloat << "\n";
+        if (csv) csv << level << "," << patches << "," << buildMs << "," << ns << "," << maxP << "," << maxN << "\n";
+    }
+}
+
+// ---- The tessellation factor: distance to the surface vs triangles and time ----
+void printTessellationTable(std::ostream& out, const std::string& csvPath) {
+    std::ofstream csv;
+    if (!csvPath.empty()) {
+        csv.open(csvPath);
+        if (!csv) throw FileError(csvPath + ": cannot write");
+        csv << "factor,mips,triangles,ms,rms_distance,max_distance\n";
+    }
+    const ControlMesh mesh = defaultMesh();
+    const BaseSurface base(mesh);
+    const TileSet ts = buildTiles(mesh, uniformTileSizes(mesh, 5), defaultDisplacement);
+    const DisplacedSurface ds(base, ts);
+    // The true surface f (finest D) at fixed points, against the piecewise-linear tessellation.
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> U(0, 1);
+    std::vector<int> faces;
+    std::vector<glm::dvec2> uv;
+    std::vector<glm::dvec3> truth;
+    for (int i = 0; i < 4096; ++i) {
+        faces.push_back(int(rng() % unsigned(base.faceCount())));
+        uv.emplace_back(U(rng), U(rng));
+        truth.push_back(ds.evaluate<double>(faces.back(), uv.back().x, uv.back().y, NormalMode::Approximate).position);
+    }
+    out << "Tessellation factor (default scene, k = 5, integer spacing, approximate normals): distance from the\n"
+        << "  tessellation to the displaced surface f (finest level) at 4096 random points, relative to the cage\n"
+        << "  size (2); with mips the target is the mip-filtered surface, so the distance to f stays larger;\n"
+        << "  ms: tessellate() on one thread, best of 5\n"
+        << "  factor  mips   triangles        ms   RMS distance   max distance\n";
+    for (MipSelection mips : {MipSelection::Off, MipSelection::TessFactor})
+        for (double T : {2.0, 4.0, 8.0, 16.0, 32.0, 64.0}) {
+            TessellateOptions o;
+            o.spacing = Spacing::Integer;
+            o.mips = mips;
+            const Tessellator tess(ds, uniformTessFactors(base, T), o);
+            double ms = 1e300;
+            TriangleMesh m;
+            for (int rep = 0; rep < 5; ++rep) {
+                const auto t0 = std::chrono::steady_clock::now();
+                m = tess.tessellate();
+                ms = std::min(ms, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+            }
+            const TriangleLocator loc(m, base.faceCount());
+            double se = 0, mx = 0;
+            for (std::size_t i = 0; i < faces.size(); ++i) {
+                const double d = glm::length(loc.position(faces[i], uv[i]) - truth[i]) / 2.0;
+                se += d * d;
+                mx = std::max(mx, d);
+            }
+            const double rms = std::sqrt(se / double(faces.size()));
+            const char* mipName = mips == MipSelection::Off ? "off" : "tf";
+            out << std::setw(8) << T << std::setw(6) << mipName << std::setw(12) << m.triangleCount() << std::fixed
+                << std::setprecision(2) << std::setw(10) << ms << std::scientific << std::setprecision(2) << std::setw(15)
+                << rms << std::setw(15) << mx << std::defaultfloat << "\n";
+            if (csv) csv << T << "," << mipName << "," << m.triangleCount() << "," << ms << "," << rms << "," << mx << "\n";
+        }
 }
 
 // ---- Google Benchmark timings ----

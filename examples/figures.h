@@ -21,6 +21,12 @@ void printMipTable(std::ostream& out, const std::string& csvPath);
 /// error against the double-precision accurate normal, on two scenes; ratios from the same run. Also writes
 /// `csvPath` if not empty.
 void printNormalTable(std::ostream& out, const std::string& csvPath);
+/// Isolation level table: patches, build time, evaluation time and the base surface's error
+/// near extraordinary vertices against level 10. Also writes `csvPath` if not empty.
+void printIsolationTable(std::ostream& out, const std::string& csvPath);
+/// Tessellation factor table: triangles, tessellation time and the distance of the mesh to the
+/// displaced surface, for factors 2..64 with and without mips. Also writes `csvPath`.
+void printTessellationTable(std::ostream& out, const std::string& csvPath);
 /// Runs the registered benchmarks with Google Benchmark's flags (e.g. --benchmark_filter=...).
 int runBenchmarks(const std::vector<std::string>& flags);
 } // namespace dispmap::figures
