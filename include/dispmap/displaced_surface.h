@@ -83,14 +83,18 @@ class DisplacedSurface {
     double autoBound(int face) const { return autoBound_.at(static_cast<std::size_t>(face)); }
 
     /// (D, D_u, D_v) at (face, u, v) read at resolution rho (kFinest: the finest level the
-    /// §4.4 clamp allows).
+    /// §4.4 clamp allows). Throws ArgumentError for a face id out of range, (u, v) outside
+    /// [0, 1]^2 or not finite, or a NaN rho.
     template <typename real> glm::vec<3, real> displacement(int face, real u, real v, real rho = real(kFinest)) const;
 
-    /// f, N_f and the rest at (face, u, v); throws as BaseSurface::evaluate.
+    /// f, N_f and the rest at (face, u, v); throws as BaseSurface::evaluate, and for a NaN rho.
     template <typename real>
     SurfaceSample<real> evaluate(int face, real u, real v, NormalMode mode, real rho = real(kFinest)) const;
 
   private:
+    /// The checks of displacement() (evaluate leaves (u, v) and holes to BaseSurface).
+    template <typename real> void check(int face, real u, real v, real rho, bool uv) const;
+    template <typename real> glm::vec<3, real> displacementAt(int face, real u, real v, real rho) const;
     const BaseSurface* base_;
     const TileSet* tiles_;
     DisplacedSurfaceOptions options_;
@@ -99,7 +103,23 @@ class DisplacedSurface {
     int autoCount_ = 0;
 };
 
+template <typename real> void DisplacedSurface::check(int face, real u, real v, real rho, bool uv) const {
+    if (face < 0 || face >= base_->faceCount())
+        throw ArgumentError("displaced surface: face id " + std::to_string(face) + " out of range [0, " +
+                            std::to_string(base_->faceCount()) + ")");
+    if (std::isnan(rho)) throw ArgumentError("displaced surface: resolution rho is NaN (face " + std::to_string(face) + ")");
+    if (uv && !(u >= real(0) && u <= real(1) && v >= real(0) && v <= real(1)))
+        throw ArgumentError("displaced surface: (u, v) = (" + std::to_string(static_cast<double>(u)) + ", " +
+                            std::to_string(static_cast<double>(v)) + ") of face " + std::to_string(face) +
+                            " is not in [0, 1]^2");
+}
+
 template <typename real> glm::vec<3, real> DisplacedSurface::displacement(int face, real u, real v, real rho) const {
+    check(face, u, v, rho, true);
+    return displacementAt(face, u, v, rho);
+}
+
+template <typename real> glm::vec<3, real> DisplacedSurface::displacementAt(int face, real u, real v, real rho) const {
     const Tile& t = tiles_->tiles[static_cast<std::size_t>(face)];
     const glm::vec<2, real> uv(u, v);
     // TileSet::evaluateD1 inlined without its range checks (face and levels are valid here).
@@ -129,6 +149,7 @@ template <typename real> glm::vec<3, real> DisplacedSurface::displacement(int fa
 
 template <typename real>
 SurfaceSample<real> DisplacedSurface::evaluate(int face, real u, real v, NormalMode mode, real rho) const {
+    check(face, u, v, rho, false); // before autoAccurate_[face]; BaseSurface checks (u, v) and holes
     const bool accurate = mode == NormalMode::Accurate ||
                           (mode == NormalMode::Auto && autoAccurate_[static_cast<std::size_t>(face)] != 0);
     // Approximate normals need first derivatives only; the second are fetched where s_u x s_v
@@ -141,7 +162,7 @@ SurfaceSample<real> DisplacedSurface::evaluate(int face, real u, real v, NormalM
     SurfaceSample<real> out;
     const glm::vec<3, real> fallback(real(0), real(0), real(1));
     const glm::vec<3, real> N = kern::dmBaseNormal(s.du, s.dv, s.duu, s.duv, s.dvv, fallback);
-    const glm::vec<3, real> d1 = displacement(face, u, v, rho);
+    const glm::vec<3, real> d1 = displacementAt(face, u, v, rho);
     glm::vec<3, real> n;
     if (accurate) {
         glm::vec<3, real> Nu, Nv;
@@ -183,7 +204,7 @@ inline DisplacedSurface::DisplacedSurface(const BaseSurface& base, const TileSet
                 const glm::dvec3 N = kern::dmBaseNormal(s.du, s.dv, s.duu, s.duv, s.dvv, glm::dvec3(0, 0, 1));
                 glm::dvec3 Nu, Nv, au, av;
                 kern::dmNormalDerivWeingarten(s.du, s.dv, s.duu, s.duv, s.dvv, N, kSinMin<double>, Nu, Nv);
-                const glm::dvec3 d1 = displacement(f, u, v, kFinest);
+                const glm::dvec3 d1 = displacementAt(f, u, v, kFinest);
                 kern::dmDisplacedNormalApprox(s.du, s.dv, N, d1, au, av);
                 // The largest |D| in the cell around the sample, to first order, either sign.
                 const double absD = std::abs(d1.x) + 0.5 * h * (std::abs(d1.y) + std::abs(d1.z));
