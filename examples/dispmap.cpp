@@ -11,6 +11,7 @@
 #include <chrono>
 #include <cmath>
 #include <iostream>
+#include <map>
 #include <sstream>
 #include <memory>
 #include <vector>
@@ -218,7 +219,8 @@ int eval(const EvalArgs& a) {
 
 struct TessellateArgs {
     SourceArgs source;
-    std::string output, normals = "approximate", spacing = "fractional", mips = "off", eye;
+    TessellateOptions options;
+    std::string output, eye;
     double factor = 8, distance = 0, maxFactor = 64, autoToleranceDeg = 2.0;
     int isolation = 6;
 };
@@ -239,29 +241,7 @@ int tessellateCommand(const TessellateArgs& a) {
     const bool ply = a.output.size() > 4 && a.output.compare(a.output.size() - 4, 4, ".ply") == 0;
     const bool obj = a.output.size() > 4 && a.output.compare(a.output.size() - 4, 4, ".obj") == 0;
     if (!ply && !obj) throw ArgumentError("tessellate: -o must name a .obj or a .ply file");
-    TessellateOptions o;
-    if (a.normals == "approximate")
-        o.normals = NormalMode::Approximate;
-    else if (a.normals == "accurate")
-        o.normals = NormalMode::Accurate;
-    else if (a.normals == "auto")
-        o.normals = NormalMode::Auto;
-    else
-        throw ArgumentError("tessellate: unknown --normals '" + a.normals + "' (approximate, accurate, auto)");
-    if (a.spacing == "fractional")
-        o.spacing = Spacing::FractionalEven;
-    else if (a.spacing == "integer")
-        o.spacing = Spacing::Integer;
-    else
-        throw ArgumentError("tessellate: unknown --spacing '" + a.spacing + "' (fractional, integer)");
-    if (a.mips == "off")
-        o.mips = MipSelection::Off;
-    else if (a.mips == "tf")
-        o.mips = MipSelection::TessFactor;
-    else if (a.mips == "seed004")
-        o.mips = MipSelection::Seed004;
-    else
-        throw ArgumentError("tessellate: unknown --mips '" + a.mips + "' (off, tf, seed004)");
+    TessellateOptions o = a.options;
     o.maxFactor = a.maxFactor;
     const TileSet ts = makeTiles(mesh, a.source, nullptr);
     BaseSurfaceOptions bo;
@@ -347,10 +327,17 @@ int main(int argc, char** argv) {
     tessCmd->add_option("--eye", ts.eye, "x,y,z: distance-based factors c / |eye - vertex| instead (with --c)");
     tessCmd->add_option("--c", ts.distance, "constant of the distance-based factors");
     tessCmd->add_option("--max-factor", ts.maxFactor, "clamp of the factors (default 64, the hardware limit)");
-    tessCmd->add_option("--normals", ts.normals, "approximate, accurate or auto");
+    tessCmd->add_option("--normals", ts.options.normals, "approximate, accurate or auto")
+        ->transform(CLI::CheckedTransformer(std::map<std::string, NormalMode>{{"approximate", NormalMode::Approximate},
+                                                                              {"accurate", NormalMode::Accurate},
+                                                                              {"auto", NormalMode::Auto}}));
     tessCmd->add_option("--auto-tolerance", ts.autoToleranceDeg, "auto normals: accepted error in degrees");
-    tessCmd->add_option("--spacing", ts.spacing, "fractional (continuous, like fractional_even) or integer");
-    tessCmd->add_option("--mips", ts.mips, "mip selection from the factor: off, tf (log2 TF, paper 6.2), seed004");
+    tessCmd->add_option("--spacing", ts.options.spacing, "fractional (continuous, like fractional_even) or integer")
+        ->transform(CLI::CheckedTransformer(
+            std::map<std::string, Spacing>{{"fractional", Spacing::FractionalEven}, {"integer", Spacing::Integer}}));
+    tessCmd->add_option("--mips", ts.options.mips, "mip selection from the factor: off, tf (log2 TF, paper 6.2), seed004")
+        ->transform(CLI::CheckedTransformer(std::map<std::string, MipSelection>{
+            {"off", MipSelection::Off}, {"tf", MipSelection::TessFactor}, {"seed004", MipSelection::Seed004}}));
     tessCmd->add_option("--isolation", ts.isolation, "OpenSubdiv adaptive isolation level (1..10)");
     auto* benchCmd = app.add_subcommand("bench", "mip accuracy table and timings (Google Benchmark flags pass through)");
     std::string csv;
