@@ -131,12 +131,15 @@ struct EvalArgs {
     std::string output;
 };
 
-// (face, u, v) from "face,u,v".
-void parsePoint(const std::string& text, int& face, double& u, double& v) {
+// Three comma-separated numbers ("3,0.25,0.5" or "0,0,4"); `what` names the option and the
+// expected form in the error.
+glm::dvec3 parseTriple(const std::string& text, const std::string& what) {
     std::istringstream in(text);
+    glm::dvec3 p;
     char c1 = 0, c2 = 0;
-    if (!(in >> face >> c1 >> u >> c2 >> v) || c1 != ',' || c2 != ',' || !(in >> std::ws).eof())
-        throw ArgumentError("--at '" + text + "': expected face,u,v (e.g. 3,0.25,0.5)");
+    if (!(in >> p.x >> c1 >> p.y >> c2 >> p.z) || c1 != ',' || c2 != ',' || !(in >> std::ws).eof())
+        throw ArgumentError(what.substr(0, what.find(' ')) + " '" + text + "': expected " + what.substr(what.find(' ') + 1));
+    return p;
 }
 
 nlohmann::json vec(glm::dvec3 a) {
@@ -195,10 +198,9 @@ int eval(const EvalArgs& a) {
         points.push_back(a.single ? evalPoint<float>(ds, f, u, v, a.rho) : evalPoint<double>(ds, f, u, v, a.rho));
     };
     for (const std::string& p : a.at) {
-        int f = 0;
-        double u = 0, v = 0;
-        parsePoint(p, f, u, v);
-        one(f, u, v);
+        const glm::dvec3 x = parseTriple(p, "--at face,u,v (e.g. 3,0.25,0.5)");
+        if (x.x != std::floor(x.x) || std::abs(x.x) > 1e9) throw ArgumentError("--at '" + p + "': the face id must be an integer");
+        one(static_cast<int>(x.x), x.y, x.z);
     }
     if (a.grid > 0)
         for (int f = 0; f < base.faceCount(); ++f) {
@@ -225,16 +227,6 @@ struct TessellateArgs {
     int isolation = 6;
 };
 
-// "x,y,z" to a point.
-glm::dvec3 parseVec3(const std::string& text, const char* option) {
-    std::istringstream in(text);
-    glm::dvec3 p;
-    char c1 = 0, c2 = 0;
-    if (!(in >> p.x >> c1 >> p.y >> c2 >> p.z) || c1 != ',' || c2 != ',' || !(in >> std::ws).eof())
-        throw ArgumentError(std::string(option) + " '" + text + "': expected x,y,z");
-    return p;
-}
-
 int tessellateCommand(const TessellateArgs& a) {
     const ControlMesh mesh = loadMesh(a.source, "tessellate");
     if (a.output.empty()) throw ArgumentError("tessellate: give -o out.obj or out.ply");
@@ -253,7 +245,7 @@ int tessellateCommand(const TessellateArgs& a) {
     dso.autoTolerance = a.autoToleranceDeg * 3.14159265358979323846 / 180.0;
     const DisplacedSurface ds(base, ts, dso);
     const TessFactors factors = a.eye.empty() ? uniformTessFactors(base, a.factor)
-                                              : distanceTessFactors(base, parseVec3(a.eye, "--eye"), a.distance);
+                                              : distanceTessFactors(base, parseTriple(a.eye, "--eye x,y,z"), a.distance);
     const auto t0 = std::chrono::steady_clock::now();
     const TriangleMesh m = tessellate(ds, factors, o);
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();

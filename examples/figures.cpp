@@ -3,6 +3,7 @@
 #include <benchmark/benchmark.h>
 
 #include "dispmap/displaced_surface.h"
+#include "dispmap/file_io.h"
 #include "dispmap/tessellator.h"
 
 #include <chrono>
@@ -16,6 +17,45 @@
 #include <vector>
 
 namespace dispmap::figures {
+
+namespace {
+// A CSV table kept in memory and written atomically by commit() (nothing when the path is
+// empty), so that a failed run never leaves half a table.
+struct CsvOut {
+    std::string path;
+    std::ostringstream text;
+    CsvOut(std::string p, const char* header) : path(std::move(p)) { text << header << "\n"; }
+    explicit operator bool() const { return !path.empty(); }
+    template <typename T> CsvOut& operator<<(const T& x) {
+        text << x;
+        return *this;
+    }
+    void commit() {
+        if (path.empty()) return;
+        const std::string t = text.str();
+        detail::writeFileAtomically(path, std::vector<unsigned char>(t.begin(), t.end()), "CSV table");
+    }
+};
+
+// A torus cage of n x m quads, main radius R, tube radius r.
+ControlMesh torusCage(int n, int m, double R, double r, const std::string& name) {
+    const double tau = 6.283185307179586;
+    std::string obj;
+    for (int j = 0; j < m; ++j)
+        for (int i = 0; i < n; ++i) {
+            const double a = tau * i / n, b = tau * j / m, w = R + r * std::cos(b);
+            obj += "v " + std::to_string(w * std::cos(a)) + " " + std::to_string(w * std::sin(a)) + " " +
+                   std::to_string(r * std::sin(b)) + "\n";
+        }
+    for (int j = 0; j < m; ++j)
+        for (int i = 0; i < n; ++i) {
+            auto id = [&](int a, int b) { return std::to_string((b % m) * n + (a % n) + 1); };
+            obj += "f " + id(i, j) + " " + id(i + 1, j) + " " + id(i + 1, j + 1) + " " + id(i, j + 1) + "\n";
+        }
+    return ControlMesh::fromObjText(obj, name);
+}
+
+} // namespace
 
 ControlMesh defaultMesh() {
     // A box whose top is split into a pentagon and a triangle: valence-3 corners, valence-5
@@ -82,19 +122,8 @@ struct MipScene {
     DisplacementFunction source;
 };
 MipScene mipScene(bool smooth) {
-    std::string obj;
     const int n = 6, m = 4;
-    for (int j = 0; j < m; ++j)
-        for (int i = 0; i < n; ++i)
-            obj += "v " + std::to_string(std::cos(6.283185307 * i / n) * (2 + std::cos(6.283185307 * j / m))) + " " +
-                   std::to_string(std::sin(6.283185307 * i / n) * (2 + std::cos(6.283185307 * j / m))) + " " +
-                   std::to_string(std::sin(6.283185307 * j / m)) + "\n";
-    for (int j = 0; j < m; ++j)
-        for (int i = 0; i < n; ++i) {
-            auto id = [&](int a, int b) { return std::to_string((b % m) * n + (a % n) + 1); };
-            obj += "f " + id(i, j) + " " + id(i + 1, j) + " " + id(i + 1, j + 1) + " " + id(i, j + 1) + "\n";
-        }
-    ControlMesh mesh = ControlMesh::fromObjText(obj, "mip torus");
+    ControlMesh mesh = torusCage(n, m, 2.0, 1.0, "mip torus");
     std::vector<int> k = uniformTileSizes(mesh, 6);
     // Periodic over the torus: frequencies in cycles per face, 1..24 (the finest level has 64
     // texels per face, so content up to its Nyquist limit of 32).
@@ -111,12 +140,7 @@ MipScene mipScene(bool smooth) {
 } // namespace
 
 void printMipTable(std::ostream& out, const std::string& csvPath) {
-    std::ofstream csv;
-    if (!csvPath.empty()) {
-        csv.open(csvPath);
-        if (!csv) throw FileError(csvPath + ": cannot write");
-        csv << "data,filter,level,size,rel_rms_error,rel_max_error,build_ms\n";
-    }
+    CsvOut csv(csvPath, "data,filter,level,size,rel_rms_error,rel_max_error,build_ms");
     out << "Mip pyramids, Haar vs quadratic B-wavelet (torus of 24 tiles, 64^2 each):\n"
         << "  error of level m against the finest level (relative to its RMS), 128^2 samples per tile;\n"
         << "  build = fit + all mips of the whole set, best of 3 (ms)\n"
@@ -168,29 +192,14 @@ void printMipTable(std::ostream& out, const std::string& csvPath) {
             }
         }
     }
+    csv.commit();
 }
 
 // ---- What accurate normals cost: base surface vs displaced, approximate / accurate / auto ----
 namespace {
 // A torus cage of 8 x 6 quads (radii 2 and 0.6): curvature up to 1 / 0.6 of the minor circle,
 // with a displacement of amplitude up to 0.12 at 3 cycles per face: |D| kappa up to about 0.2.
-ControlMesh torusMesh() {
-    std::string obj;
-    const int n = 8, m = 6;
-    const double tau = 6.283185307179586;
-    for (int j = 0; j < m; ++j)
-        for (int i = 0; i < n; ++i) {
-            const double a = tau * i / n, b = tau * j / m, r = 2 + 0.6 * std::cos(b);
-            obj += "v " + std::to_string(r * std::cos(a)) + " " + std::to_string(r * std::sin(a)) + " " +
-                   std::to_string(0.6 * std::sin(b)) + "\n";
-        }
-    for (int j = 0; j < m; ++j)
-        for (int i = 0; i < n; ++i) {
-            auto id = [&](int a, int b) { return std::to_string((b % m) * n + (a % n) + 1); };
-            obj += "f " + id(i, j) + " " + id(i + 1, j) + " " + id(i + 1, j + 1) + " " + id(i, j + 1) + "\n";
-        }
-    return ControlMesh::fromObjText(obj, "torus 8x6");
-}
+ControlMesh torusMesh() { return torusCage(8, 6, 2.0, 0.6, "torus 8x6"); }
 double torusDisplacement(int face, double u, double v) {
     // Large on one side of the torus, fading to nothing on the other (the angle around the
     // main circle is (face % 8 + u) / 8 turns): auto mode should spend the Weingarten term
@@ -236,7 +245,7 @@ void timeNormals(const std::string& sceneName, const BaseSurface& base, const Di
             if (!v.ds) {
                 const BaseSample<real> s = base.evaluate<real>(faces[i], p[i].x, p[i].y, false);
                 const glm::vec<3, real> z(0);
-                nrm[i] = kern::dmBaseNormal(s.du, s.dv, z, z, z, glm::vec<3, real>(0, 0, 1));
+                nrm[i] = kern::dmBaseNormal(s.du, s.dv, z, z, z, p[i], glm::vec<3, real>(0, 0, 1));
                 pos[i] = s.p;
             } else {
                 const SurfaceSample<real> r = v.ds->evaluate<real>(faces[i], p[i].x, p[i].y, v.mode);
@@ -266,12 +275,7 @@ void timeNormals(const std::string& sceneName, const BaseSurface& base, const Di
 } // namespace
 
 void printNormalTable(std::ostream& out, const std::string& csvPath) {
-    std::ofstream csv;
-    if (!csvPath.empty()) {
-        csv.open(csvPath);
-        if (!csv) throw FileError(csvPath + ": cannot write");
-        csv << "scene,precision,variant,ns_per_eval,ratio,mean_error_deg,max_error_deg\n";
-    }
+    CsvOut csv(csvPath, "scene,precision,variant,ns_per_eval,ratio,mean_error_deg,max_error_deg");
     struct Scene {
         std::string name;
         ControlMesh mesh;
@@ -330,20 +334,16 @@ void printNormalTable(std::ostream& out, const std::string& csvPath) {
                 << r.meanDeg << " deg, max " << r.maxDeg << " deg\n"
                 << std::defaultfloat;
             if (csv)
-                csv << '"' << r.scene << "\"," << r.precision << "," << r.variant << "," << r.ns << "," << r.ratio << ","
+                csv << '"' << r.scene << "\"," << r.precision << ",\"" << r.variant << "\"," << r.ns << "," << r.ratio << ","
                     << r.meanDeg << "," << r.maxDeg << "\n";
         }
     }
+    csv.commit();
 }
 
 // ---- The isolation level: base-surface error near extraordinary vertices vs cost ----
 void printIsolationTable(std::ostream& out, const std::string& csvPath) {
-    std::ofstream csv;
-    if (!csvPath.empty()) {
-        csv.open(csvPath);
-        if (!csv) throw FileError(csvPath + ": cannot write");
-        csv << "isolation,patches,build_ms,ns_per_eval,max_position_error,max_normal_error_deg\n";
-    }
+    CsvOut csv(csvPath, "isolation,patches,build_ms,ns_per_eval,max_position_error,max_normal_error_deg");
     const ControlMesh mesh = defaultMesh();
     BaseSurfaceOptions refOptions;
     refOptions.isolationLevel = 10;
@@ -410,16 +410,12 @@ void printIsolationTable(std::ostream& out, const std::string& csvPath) {
             << std::setw(19) << maxP << std::setw(23) << maxN << std::defaultfloat << "\n";
         if (csv) csv << level << "," << patches << "," << buildMs << "," << ns << "," << maxP << "," << maxN << "\n";
     }
+    csv.commit();
 }
 
 // ---- The tessellation factor: distance to the surface vs triangles and time ----
 void printTessellationTable(std::ostream& out, const std::string& csvPath) {
-    std::ofstream csv;
-    if (!csvPath.empty()) {
-        csv.open(csvPath);
-        if (!csv) throw FileError(csvPath + ": cannot write");
-        csv << "factor,mips,triangles,ms,rms_distance,max_distance\n";
-    }
+    CsvOut csv(csvPath, "factor,mips,triangles,ms,rms_distance,max_distance");
     const ControlMesh mesh = defaultMesh();
     const BaseSurface base(mesh);
     const TileSet ts = buildTiles(mesh, uniformTileSizes(mesh, 5), defaultDisplacement);
@@ -467,6 +463,7 @@ void printTessellationTable(std::ostream& out, const std::string& csvPath) {
                 << rms << std::setw(15) << mx << std::defaultfloat << "\n";
             if (csv) csv << T << "," << mipName << "," << m.triangleCount() << "," << ms << "," << rms << "," << mx << "\n";
         }
+    csv.commit();
 }
 
 // ---- Google Benchmark timings ----

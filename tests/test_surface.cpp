@@ -760,7 +760,7 @@ TEST_CASE("base normal derivatives: Weingarten route = cross route = finite diff
         const BaseSurface base(mesh);
         auto normal = [&](int f, double u, double v) {
             const BaseSample<double> s = base.evaluate<double>(f, u, v, true);
-            return kern::dmBaseNormal(s.du, s.dv, s.duu, s.duv, s.dvv, dvec3(0, 0, 1));
+            return kern::dmBaseNormal(s.du, s.dv, s.duu, s.duv, s.dvv, glm::dvec2(u, v), dvec3(0, 0, 1));
         };
         for (const PatchPoint& pt : patchPoints(base, 150)) {
             CAPTURE(pt.face, pt.u, pt.v);
@@ -839,7 +839,7 @@ TEST_CASE("base surface: closed form on a paraboloid", "[surface]") {
                 worstP = std::max({worstP, glm::length(s.p - p), glm::length(s.du - dvec3(1, 0, zx)),
                                    glm::length(s.dv - dvec3(0, 1, zy)), glm::length(s.duu - dvec3(0, 0, 2 * a)),
                                    glm::length(s.duv - dvec3(0, 0, c)), glm::length(s.dvv - dvec3(0, 0, 2 * b))});
-                const dvec3 Ns = kern::dmBaseNormal(s.du, s.dv, s.duu, s.duv, s.dvv, dvec3(0, 0, 1));
+                const dvec3 Ns = kern::dmBaseNormal(s.du, s.dv, s.duu, s.duv, s.dvv, glm::dvec2(u, v), dvec3(0, 0, 1));
                 dvec3 Nu, Nv;
                 kern::dmNormalDerivWeingarten(s.du, s.dv, s.duu, s.duv, s.dvv, Ns, kSinMin<double>, Nu, Nv);
                 worstN = std::max(worstN, glm::length(Ns - N));
@@ -1212,7 +1212,7 @@ TEST_CASE("hard cases: zero displacement gives the base normal exactly in both m
                 for (int i = 0; i <= 6; ++i) {
                     const double u = i / 6.0, v = j / 6.0;
                     const BaseSample<double> s = base.evaluate<double>(f, u, v, true);
-                    dvec3 N = kern::dmBaseNormal(s.du, s.dv, s.duu, s.duv, s.dvv, dvec3(0, 0, 1));
+                    dvec3 N = kern::dmBaseNormal(s.du, s.dv, s.duu, s.duv, s.dvv, glm::dvec2(u, v), dvec3(0, 0, 1));
                     if (s.evWeight > 0) N = kern::dmBlendLimitNormal(N, s.evNormal, s.evWeight);
                     for (NormalMode m : {NormalMode::Approximate, NormalMode::Accurate}) {
                         const SurfaceSample<double> d = ds.evaluate<double>(f, u, v, m);
@@ -1264,7 +1264,7 @@ TEMPLATE_TEST_CASE("hard cases: near-singular first fundamental form in the norm
         const vec3 suu(T(0), T(0), static_cast<T>(a));
         const vec3 suv(T(0), T(0), static_cast<T>(a * ct + c * st));
         const vec3 svv(T(0), T(0), static_cast<T>(a * ct * ct + 2 * c * ct * st + b * st * st));
-        const vec3 N = kern::dmBaseNormal(su, sv, suu, suv, svv, vec3(T(0), T(0), T(1)));
+        const vec3 N = kern::dmBaseNormal(su, sv, suu, suv, svv, glm::vec<2, T>(T(0.5)), vec3(T(0), T(0), T(1)));
         REQUIRE(finite3(N));
         const lvec3 refU = Nx, refV = ct * Nx + st * Ny;
         for (int route = 0; route < 2; ++route) {
@@ -1378,4 +1378,39 @@ TEST_CASE("bad inputs: clear errors", "[surface]") {
         o.autoSamples = samples;
         CHECK_THROWS_AS(DisplacedSurface(base, tiles, o), ArgumentError);
     }
+}
+
+// The fallback where s_u x s_v vanishes must point the way the normal does just inside the face,
+// at every corner (the first-order term n_u + n_v alone is flipped at u = 1 or v = 1). Two
+// surfaces whose normal changes sign across the line x = u - cu = 0 (resp. y = v - cv = 0), so
+// only the side inside the face is right: s = (u, x (v - cv), 0) with s_v = 0 on that edge, and
+// s = ((v - cv) u, v, 0) with s_u = 0 on the other. The reference is the normal a step of 1e-4
+// inside; tolerance 1e-2 rad (the normal there is exactly +-z, so any flip fails by pi).
+TEST_CASE("degenerate normal: the fallback points like the normal just inside", "[surface]") {
+    for (int surface = 0; surface < 2; ++surface)
+        for (int corner = 0; corner < 4; ++corner) {
+            CAPTURE(surface, corner);
+            const double cu = corner == 1 || corner == 2 ? 1.0 : 0.0, cv = corner >= 2 ? 1.0 : 0.0;
+            auto eval = [&](double u, double v, dvec3& su, dvec3& sv, dvec3& suu, dvec3& suv, dvec3& svv) {
+                const double x = u - cu, y = v - cv;
+                suu = svv = dvec3(0);
+                if (surface == 0) {
+                    su = dvec3(1, y, 0);
+                    sv = dvec3(0, x, 0);
+                    suv = dvec3(0, 1, 0);
+                } else {
+                    su = dvec3(y, 0, 0);
+                    sv = dvec3(x, 1, 0);
+                    suv = dvec3(1, 0, 0);
+                }
+            };
+            dvec3 su, sv, suu, suv, svv;
+            eval(cu, cv, su, sv, suu, suv, svv);
+            REQUIRE(glm::length(glm::cross(su, sv)) == 0.0);
+            const dvec3 N = kern::dmBaseNormal(su, sv, suu, suv, svv, glm::dvec2(cu, cv), dvec3(1, 0, 0));
+            const double iu = cu == 0 ? 1e-4 : 1 - 1e-4, iv = cv == 0 ? 1e-4 : 1 - 1e-4;
+            eval(iu, iv, su, sv, suu, suv, svv);
+            const dvec3 inside = glm::normalize(glm::cross(su, sv));
+            CHECK(glm::dot(N, inside) > std::cos(1e-2));
+        }
 }

@@ -71,7 +71,7 @@ class BaseSurface {
     /// Number of Ptex faces (the valid face ids).
     int faceCount() const { return faceCount_; }
     /// True if the Ptex face lies in a face tagged as a hole (no surface there).
-    bool isHole(int face) const { return hole_.at(static_cast<std::size_t>(face)) != 0; }
+    bool isHole(int face) const { return hole_[checkedFace(face)] != 0; }
     const BaseSurfaceOptions& options() const { return options_; }
     const Far::PatchTable& patchTable() const { return *table_; }
     const Far::TopologyRefiner& refiner() const { return *refiner_; }
@@ -80,8 +80,14 @@ class BaseSurface {
     const std::vector<glm::dvec3>& points() const { return pointsD_; }
     /// Whether Ptex corner c (0 at (0,0), 1 at (1,0), 2 at (1,1), 3 at (0,1)) of `face` is an
     /// extraordinary corner (see above), and the limit normal there.
-    bool isExtraordinaryCorner(int face, int c) const { return evCorner_.at(static_cast<std::size_t>(face))[static_cast<std::size_t>(c & 3)] != 0; }
-    glm::dvec3 cornerNormal(int face, int c) const { return cornerNormal_.at(static_cast<std::size_t>(face))[static_cast<std::size_t>(c & 3)]; }
+    bool isExtraordinaryCorner(int face, int c) const { return evCorner_[checkedFace(face)][static_cast<std::size_t>(c & 3)] != 0; }
+    glm::dvec3 cornerNormal(int face, int c) const { return cornerNormal_[checkedFace(face)][static_cast<std::size_t>(c & 3)]; }
+    /// `face` as an index; throws ArgumentError naming the mesh if it is not a Ptex face id.
+    std::size_t checkedFace(int face) const {
+        if (face < 0 || face >= faceCount_)
+            throw ArgumentError(name_ + ": face id " + std::to_string(face) + " out of range [0, " + std::to_string(faceCount_) + ")");
+        return static_cast<std::size_t>(face);
+    }
 
     /// s, s_u, s_v and, if `second`, s_uu, s_uv, s_vv at (face, u, v). Throws ArgumentError
     /// for a face id out of range, a hole, or (u, v) outside [0, 1]^2 or not finite.
@@ -177,8 +183,9 @@ inline BaseSurface::BaseSurface(const ControlMesh& mesh, BaseSurfaceOptions opti
             if (f >= 0 && f < faceCount_) hole_[static_cast<std::size_t>(f)] = 0;
         }
 
-    // Extraordinary corners and their limit normals (the end caps interpolate the limit
-    // position and tangents at a patch corner, so s_u x s_v there is the limit normal).
+    // Extraordinary corners and their limit normals (Gregory end caps interpolate the limit
+    // position and tangents at a patch corner, so s_u x s_v there is the limit normal; B-spline
+    // end caps approximate it).
     evCorner_.assign(static_cast<std::size_t>(faceCount_), {0, 0, 0, 0});
     cornerNormal_.assign(static_cast<std::size_t>(faceCount_), {});
     static const double cu[4] = {0, 1, 1, 0}, cv[4] = {0, 0, 1, 1};
@@ -188,7 +195,7 @@ inline BaseSurface::BaseSurface(const ControlMesh& mesh, BaseSurfaceOptions opti
             const BaseSample<double> s = evaluate<double>(f, cu[c], cv[c], true);
             const glm::dvec3 fallback(0, 0, 1);
             cornerNormal_[static_cast<std::size_t>(f)][static_cast<std::size_t>(c)] =
-                kern::dmBaseNormal(s.du, s.dv, s.duu, s.duv, s.dvv, fallback);
+                kern::dmBaseNormal(s.du, s.dv, s.duu, s.duv, s.dvv, glm::dvec2(cu[c], cv[c]), fallback);
             const int vtx = topology_.cornerVertex(f, c);
             evCorner_[static_cast<std::size_t>(f)][static_cast<std::size_t>(c)] =
                 topology_.kind(vtx) == TileTopology::VertexKind::Constrained ? 1 : 0;
@@ -197,8 +204,7 @@ inline BaseSurface::BaseSurface(const ControlMesh& mesh, BaseSurfaceOptions opti
 }
 
 template <typename real> BaseSample<real> BaseSurface::evaluate(int face, real u, real v, bool second) const {
-    if (face < 0 || face >= faceCount_)
-        throw ArgumentError(name_ + ": face id " + std::to_string(face) + " out of range [0, " + std::to_string(faceCount_) + ")");
+    checkedFace(face);
     if (!(u >= real(0) && u <= real(1) && v >= real(0) && v <= real(1)))
         throw ArgumentError(name_ + ": (u, v) = (" + std::to_string(static_cast<double>(u)) + ", " +
                             std::to_string(static_cast<double>(v)) + ") of face " + std::to_string(face) +

@@ -13,8 +13,9 @@
 //    by half a cell times |grad D| (either sign), largest over the grid, times kAutoMargin for
 //    what the grid misses. The bound is an
 //    estimate, not a proof, between the samples; the tests check the promise pointwise on
-//    every test mesh. Faces whose mips are read (LOD) get smaller D_u, D_v than the finest
-//    level the bound is taken on; the Weingarten term itself depends on |D| only.
+//    every test mesh, at the finest level. At coarser mips (LOD) D and its gradient change,
+//    and with them the angle (it vanishes where grad D = 0, and grows with |D| and |grad D|);
+//    the tests measured it only falling there, but the promise is stated for the finest level.
 // In end-cap patches at extraordinary corners the normal blends to the limit normal (§5.4).
 //
 // D comes from the TileSet with the §4.4 clamp always applied (so that tiles of different
@@ -39,7 +40,8 @@ inline const char* toString(NormalMode m) {
 }
 
 /// The smallest sine of the angle between s_u and s_v above which the first fundamental form
-/// is used as it is (kernels/normal.h): about sqrt of the precision's epsilon.
+/// is used as it is (kernels/normal.h): where the float error of the Weingarten term, about
+/// eps / sin^2, stays near 0.1 (float) and 1e-2 (double).
 template <typename real> constexpr real kSinMin = real(1e-3);
 template <> inline constexpr double kSinMin<double> = 1e-7;
 
@@ -71,6 +73,9 @@ class DisplacedSurface {
     /// Throws ArgumentError if the tiles do not belong to the surface's mesh (count) or the
     /// options are out of range (tolerance not finite or < 0, fewer than 2 samples).
     DisplacedSurface(const BaseSurface& base, const TileSet& tiles, DisplacedSurfaceOptions options = {});
+    /// The surface keeps pointers to the base and the tiles: temporaries would dangle.
+    DisplacedSurface(BaseSurface&&, const TileSet&, DisplacedSurfaceOptions = {}) = delete;
+    DisplacedSurface(const BaseSurface&, TileSet&&, DisplacedSurfaceOptions = {}) = delete;
 
     const BaseSurface& base() const { return *base_; }
     const TileSet& tiles() const { return *tiles_; }
@@ -80,7 +85,7 @@ class DisplacedSurface {
     const std::vector<std::uint8_t>& autoFaces() const { return autoAccurate_; }
     /// How many faces auto mode evaluates accurately, and the bound per face (sine).
     int autoAccurateCount() const { return autoCount_; }
-    double autoBound(int face) const { return autoBound_.at(static_cast<std::size_t>(face)); }
+    double autoBound(int face) const { return autoBound_[base_->checkedFace(face)]; }
 
     /// (D, D_u, D_v) at (face, u, v) read at resolution rho (kFinest: the finest level the
     /// §4.4 clamp allows). Throws ArgumentError for a face id out of range, (u, v) outside
@@ -104,9 +109,7 @@ class DisplacedSurface {
 };
 
 template <typename real> void DisplacedSurface::check(int face, real u, real v, real rho, bool uv) const {
-    if (face < 0 || face >= base_->faceCount())
-        throw ArgumentError("displaced surface: face id " + std::to_string(face) + " out of range [0, " +
-                            std::to_string(base_->faceCount()) + ")");
+    base_->checkedFace(face);
     if (std::isnan(rho)) throw ArgumentError("displaced surface: resolution rho is NaN (face " + std::to_string(face) + ")");
     if (uv && !(u >= real(0) && u <= real(1) && v >= real(0) && v <= real(1)))
         throw ArgumentError("displaced surface: (u, v) = (" + std::to_string(static_cast<double>(u)) + ", " +
@@ -161,7 +164,7 @@ SurfaceSample<real> DisplacedSurface::evaluate(int face, real u, real v, NormalM
     }
     SurfaceSample<real> out;
     const glm::vec<3, real> fallback(real(0), real(0), real(1));
-    const glm::vec<3, real> N = kern::dmBaseNormal(s.du, s.dv, s.duu, s.duv, s.dvv, fallback);
+    const glm::vec<3, real> N = kern::dmBaseNormal(s.du, s.dv, s.duu, s.duv, s.dvv, glm::vec<2, real>(u, v), fallback);
     const glm::vec<3, real> d1 = displacementAt(face, u, v, rho);
     glm::vec<3, real> n;
     if (accurate) {
@@ -201,7 +204,7 @@ inline DisplacedSurface::DisplacedSurface(const BaseSurface& base, const TileSet
             for (int i = 0; i < m && bound < 1.0; ++i) {
                 const double u = i * h, v = j * h;
                 const BaseSample<double> s = base.evaluate(f, u, v, true);
-                const glm::dvec3 N = kern::dmBaseNormal(s.du, s.dv, s.duu, s.duv, s.dvv, glm::dvec3(0, 0, 1));
+                const glm::dvec3 N = kern::dmBaseNormal(s.du, s.dv, s.duu, s.duv, s.dvv, glm::dvec2(u, v), glm::dvec3(0, 0, 1));
                 glm::dvec3 Nu, Nv, au, av;
                 kern::dmNormalDerivWeingarten(s.du, s.dv, s.duu, s.duv, s.dvv, N, kSinMin<double>, Nu, Nv);
                 const glm::dvec3 d1 = displacementAt(f, u, v, kFinest);

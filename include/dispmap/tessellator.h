@@ -157,32 +157,41 @@ inline void checkFactor(double f, const std::string& what) {
 inline const Far::TopologyLevel& baseLevel(const BaseSurface& base) { return base.refiner().GetLevel(0); }
 } // namespace detail
 
+namespace detail {
+/// Per TileTopology vertex id from per base vertex values: edge midpoints take the mean of
+/// their edge's two vertices, N-gon centres the mean of the face's vertices (§6.1's bilinear
+/// subdivision). Written as 0.5 a + 0.5 b and a sum of x / n so that finite input stays finite.
+inline std::vector<double> spreadToTileVertices(const Far::TopologyLevel& L, const std::vector<double>& perBaseVertex) {
+    const int nv = L.GetNumVertices(), ne = L.GetNumEdges(), nf = L.GetNumFaces();
+    std::vector<double> out(static_cast<std::size_t>(nv + ne + nf), 0.0);
+    std::copy(perBaseVertex.begin(), perBaseVertex.begin() + nv, out.begin());
+    for (int e = 0; e < ne; ++e) {
+        auto ev = L.GetEdgeVertices(e);
+        out[static_cast<std::size_t>(nv + e)] =
+            0.5 * perBaseVertex[static_cast<std::size_t>(ev[0])] + 0.5 * perBaseVertex[static_cast<std::size_t>(ev[1])];
+    }
+    for (int f = 0; f < nf; ++f) {
+        auto fv = L.GetFaceVertices(f);
+        double sum = 0;
+        for (int i = 0; i < fv.size(); ++i) sum += perBaseVertex[static_cast<std::size_t>(fv[i])] / double(fv.size());
+        out[static_cast<std::size_t>(nv + ne + f)] = sum;
+    }
+    return out;
+}
+} // namespace detail
+
 /// Factors for every TileTopology vertex id from one factor per base vertex: midpoints and
 /// centres get the means (see the header). Throws ArgumentError for a wrong count or a
 /// factor that is not finite and > 0.
 inline TessFactors tessFactorsFromBaseVertices(const BaseSurface& base, const std::vector<double>& perBaseVertex) {
     const Far::TopologyLevel& L = detail::baseLevel(base);
-    const int nv = L.GetNumVertices(), ne = L.GetNumEdges(), nf = L.GetNumFaces();
+    const int nv = L.GetNumVertices();
     if (static_cast<int>(perBaseVertex.size()) != nv)
         throw ArgumentError(std::to_string(perBaseVertex.size()) + " tessellation factors given for " +
                             std::to_string(nv) + " base vertices");
     TessFactors out;
-    out.values.assign(static_cast<std::size_t>(nv + ne + nf), 0.0);
-    for (int v = 0; v < nv; ++v) {
-        detail::checkFactor(perBaseVertex[static_cast<std::size_t>(v)], "base vertex " + std::to_string(v));
-        out.values[static_cast<std::size_t>(v)] = perBaseVertex[static_cast<std::size_t>(v)];
-    }
-    for (int e = 0; e < ne; ++e) {
-        auto ev = L.GetEdgeVertices(e);
-        out.values[static_cast<std::size_t>(nv + e)] =
-            0.5 * (perBaseVertex[static_cast<std::size_t>(ev[0])] + perBaseVertex[static_cast<std::size_t>(ev[1])]);
-    }
-    for (int f = 0; f < nf; ++f) {
-        auto fv = L.GetFaceVertices(f);
-        double sum = 0;
-        for (int i = 0; i < fv.size(); ++i) sum += perBaseVertex[static_cast<std::size_t>(fv[i])];
-        out.values[static_cast<std::size_t>(nv + ne + f)] = sum / double(fv.size());
-    }
+    for (int v = 0; v < nv; ++v) detail::checkFactor(perBaseVertex[static_cast<std::size_t>(v)], "base vertex " + std::to_string(v));
+    out.values = detail::spreadToTileVertices(L, perBaseVertex);
     return out;
 }
 
@@ -230,6 +239,8 @@ class Tessellator {
     /// Throws ArgumentError for factors of another mesh, invalid factors, or options out of
     /// range (see the header).
     Tessellator(const DisplacedSurface& surface, TessFactors factors, TessellateOptions options = {});
+    /// The tessellator keeps a pointer to the surface: a temporary would dangle.
+    Tessellator(DisplacedSurface&&, TessFactors, TessellateOptions = {}) = delete;
 
     const TessellateOptions& options() const { return options_; }
     /// A tile's corner factors (scaled and clamped), edge factors and inner factors. Throws
@@ -282,7 +293,6 @@ inline Tessellator::Tessellator(const DisplacedSurface& surface, TessFactors fac
     const TileTopology& topo = base.topology();
     const Far::TopologyLevel& L = detail::baseLevel(base);
     nv_ = L.GetNumVertices();
-    const int ne = L.GetNumEdges();
     if (static_cast<int>(factors_.values.size()) != topo.vertexCount())
         throw ArgumentError(std::to_string(factors_.values.size()) + " tessellation factors given, but the surface has " +
                             std::to_string(topo.vertexCount()) + " tile vertices: they were made for another mesh");
@@ -313,19 +323,7 @@ inline Tessellator::Tessellator(const DisplacedSurface& surface, TessFactors fac
         else
             perVertex[i] = std::max(kern::dmVertexResolutionSeed004(kMin[i], std::max(F, 1.0)), floorRes[i]);
     }
-    mipValue_.assign(static_cast<std::size_t>(topo.vertexCount()), 0.0);
-    std::copy(perVertex.begin(), perVertex.end(), mipValue_.begin());
-    for (int e = 0; e < ne; ++e) {
-        auto ev = L.GetEdgeVertices(e);
-        mipValue_[static_cast<std::size_t>(nv_ + e)] =
-            0.5 * (perVertex[static_cast<std::size_t>(ev[0])] + perVertex[static_cast<std::size_t>(ev[1])]);
-    }
-    for (int f = 0; f < L.GetNumFaces(); ++f) {
-        auto fv = L.GetFaceVertices(f);
-        double sum = 0;
-        for (int i = 0; i < fv.size(); ++i) sum += perVertex[static_cast<std::size_t>(fv[i])];
-        mipValue_[static_cast<std::size_t>(nv_ + ne + f)] = sum / double(fv.size());
-    }
+    mipValue_ = detail::spreadToTileVertices(L, perVertex);
 }
 
 inline glm::dvec4 Tessellator::cornerFactors(int face) const {
@@ -542,6 +540,8 @@ class TriangleLocator {
   public:
     /// `faceCount` Ptex faces; `cells` buckets per side of each face's grid (>= 1).
     TriangleLocator(const TriangleMesh& mesh, int faceCount, int cells = 16);
+    /// The locator keeps a pointer to the mesh: a temporary would dangle.
+    TriangleLocator(TriangleMesh&&, int, int = 16) = delete;
     /// The triangle covering (face, uv) and its barycentric weights, or -1 when no triangle of
     /// that face covers it (a hole). Points on shared edges pick the most interior triangle.
     int locate(int face, glm::dvec2 uv, glm::dvec3& bary) const;
@@ -554,7 +554,7 @@ class TriangleLocator {
                    static_cast<std::size_t>(cells_) +
                static_cast<std::size_t>(i);
     }
-    int cell(double x) const { return std::clamp(static_cast<int>(x * cells_), 0, cells_ - 1); }
+    int cell(double x) const { return static_cast<int>(std::clamp(x * cells_, 0.0, double(cells_ - 1))); }
     const TriangleMesh* mesh_;
     int faces_, cells_;
     std::vector<std::vector<int>> buckets_;
@@ -563,6 +563,11 @@ class TriangleLocator {
 inline TriangleLocator::TriangleLocator(const TriangleMesh& mesh, int faceCount, int cells)
     : mesh_(&mesh), faces_(faceCount), cells_(cells) {
     if (cells < 1 || cells > 4096 || faceCount < 0) throw ArgumentError("triangle locator: invalid grid");
+    if (mesh.triangleFaces.size() != mesh.triangles.size() || mesh.triangleUVs.size() != mesh.triangles.size())
+        throw ArgumentError("triangle locator: the mesh's triangle arrays disagree in size");
+    for (const auto& t : mesh.triangleUVs)
+        for (const glm::dvec2& q : t)
+            if (!std::isfinite(q.x) || !std::isfinite(q.y)) throw ArgumentError("triangle locator: a triangle's (u, v) is not finite");
     buckets_.resize(static_cast<std::size_t>(faceCount) * static_cast<std::size_t>(cells) * static_cast<std::size_t>(cells));
     for (int tri = 0; tri < mesh.triangleCount(); ++tri) {
         const int f = mesh.triangleFaces[static_cast<std::size_t>(tri)];
@@ -576,7 +581,7 @@ inline TriangleLocator::TriangleLocator(const TriangleMesh& mesh, int faceCount,
 }
 
 inline int TriangleLocator::locate(int face, glm::dvec2 uv, glm::dvec3& bary) const {
-    if (face < 0 || face >= faces_) return -1;
+    if (face < 0 || face >= faces_ || !std::isfinite(uv.x) || !std::isfinite(uv.y)) return -1;
     int best = -1;
     double bestMin = -1e-9;
     for (int tri : buckets_[bucket(face, cell(uv.x), cell(uv.y))]) {

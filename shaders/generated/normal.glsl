@@ -10,7 +10,7 @@
 #define rvec3 vec3
 #define rvec4 vec4
 #define rmat3 mat3
-#line 28 "include/dispmap/kernels/normal.h"
+#line 29 "include/dispmap/kernels/normal.h"
 // v / |v|, or `fallback` where |v|^2 is zero (or underflows).
 DM_TFUNC rvec3 dmSafeNormalize(rvec3 v, rvec3 fallback) {
     real l2 = dmDot3(v, v);
@@ -20,20 +20,25 @@ DM_TFUNC rvec3 dmSafeNormalize(rvec3 v, rvec3 fallback) {
     return fallback;
 }
 
-// The unit normal of s from its first derivatives, with the degenerate fallbacks described
-// above (second derivatives are needed only there).
-DM_TFUNC rvec3 dmBaseNormal(rvec3 su, rvec3 sv, rvec3 suu, rvec3 suv, rvec3 svv, rvec3 fallback) {
+// The unit normal of s at (u, v) from its first derivatives, with the degenerate fallbacks
+// described above (second derivatives are needed only there). Where s_u x s_v vanishes the
+// normal is the limit from inside the face: n(u + du, v + dv) ~ du n_u + dv n_v with (du, dv)
+// pointing into [0, 1]^2 from (u, v), so a degenerate point at u = 1 or v = 1 is not flipped.
+DM_TFUNC rvec3 dmBaseNormal(rvec3 su, rvec3 sv, rvec3 suu, rvec3 suv, rvec3 svv, rvec2 uv, rvec3 fallback) {
     rvec3 n = cross(su, sv);
     real l2 = dmDot3(n, n);
     if (l2 > real(0)) {
         return n * (real(1) / sqrt(l2));
     }
-    rvec3 taylor = (cross(suu, sv) + cross(su, suv)) + (cross(suv, sv) + cross(su, svv));
+    real du = uv.x < real(0.5) ? real(1) : real(-1);
+    real dv = uv.y < real(0.5) ? real(1) : real(-1);
+    rvec3 taylor = (cross(suu, sv) + cross(su, suv)) * du + (cross(suv, sv) + cross(su, svv)) * dv;
     return dmSafeNormalize(taylor, fallback);
 }
 
 // Weingarten equations (§5.1): N_u and N_v of the unit normal N of s. sinMin bounds the
-// first fundamental form below (see the header comment); 1e-3 in float, 1e-7 in double.
+// first fundamental form below (see the header comment); the library passes 1e-3 in float and
+// 1e-7 in double (displaced_surface.h, kSinMin).
 DM_TFUNC void dmNormalDerivWeingarten(rvec3 su, rvec3 sv, rvec3 suu, rvec3 suv, rvec3 svv, rvec3 N, real sinMin,
                                       DM_OUT(rvec3) Nu, DM_OUT(rvec3) Nv) {
     rvec3 n = cross(su, sv);
@@ -121,7 +126,7 @@ DM_TFUNC rvec3 dmBlendLimitNormal(rvec3 n, rvec3 evNormal, real evWeight) {
 #define rvec3 dvec3
 #define rvec4 dvec4
 #define rmat3 dmat3
-#line 28 "include/dispmap/kernels/normal.h"
+#line 29 "include/dispmap/kernels/normal.h"
 // v / |v|, or `fallback` where |v|^2 is zero (or underflows).
 DM_TFUNC rvec3 dmSafeNormalize(rvec3 v, rvec3 fallback) {
     real l2 = dmDot3(v, v);
@@ -130,23 +135,28 @@ DM_TFUNC rvec3 dmSafeNormalize(rvec3 v, rvec3 fallback) {
     }
     return fallback;
 }
-#line 36 "include/dispmap/kernels/normal.h"
+#line 37 "include/dispmap/kernels/normal.h"
 
-// The unit normal of s from its first derivatives, with the degenerate fallbacks described
-// above (second derivatives are needed only there).
-DM_TFUNC rvec3 dmBaseNormal(rvec3 su, rvec3 sv, rvec3 suu, rvec3 suv, rvec3 svv, rvec3 fallback) {
+// The unit normal of s at (u, v) from its first derivatives, with the degenerate fallbacks
+// described above (second derivatives are needed only there). Where s_u x s_v vanishes the
+// normal is the limit from inside the face: n(u + du, v + dv) ~ du n_u + dv n_v with (du, dv)
+// pointing into [0, 1]^2 from (u, v), so a degenerate point at u = 1 or v = 1 is not flipped.
+DM_TFUNC rvec3 dmBaseNormal(rvec3 su, rvec3 sv, rvec3 suu, rvec3 suv, rvec3 svv, rvec2 uv, rvec3 fallback) {
     rvec3 n = cross(su, sv);
     real l2 = dmDot3(n, n);
     if (l2 > real(0)) {
         return n * (real(1) / sqrt(l2));
     }
-    rvec3 taylor = (cross(suu, sv) + cross(su, suv)) + (cross(suv, sv) + cross(su, svv));
+    real du = uv.x < real(0.5) ? real(1) : real(-1);
+    real dv = uv.y < real(0.5) ? real(1) : real(-1);
+    rvec3 taylor = (cross(suu, sv) + cross(su, suv)) * du + (cross(suv, sv) + cross(su, svv)) * dv;
     return dmSafeNormalize(taylor, fallback);
 }
-#line 48 "include/dispmap/kernels/normal.h"
+#line 53 "include/dispmap/kernels/normal.h"
 
 // Weingarten equations (§5.1): N_u and N_v of the unit normal N of s. sinMin bounds the
-// first fundamental form below (see the header comment); 1e-3 in float, 1e-7 in double.
+// first fundamental form below (see the header comment); the library passes 1e-3 in float and
+// 1e-7 in double (displaced_surface.h, kSinMin).
 DM_TFUNC void dmNormalDerivWeingarten(rvec3 su, rvec3 sv, rvec3 suu, rvec3 suv, rvec3 svv, rvec3 N, real sinMin,
                                       DM_OUT(rvec3) Nu, DM_OUT(rvec3) Nv) {
     rvec3 n = cross(su, sv);
@@ -165,7 +175,7 @@ DM_TFUNC void dmNormalDerivWeingarten(rvec3 su, rvec3 sv, rvec3 suu, rvec3 suv, 
         Nv = rvec3(real(0));
     }
 }
-#line 69 "include/dispmap/kernels/normal.h"
+#line 75 "include/dispmap/kernels/normal.h"
 
 // The cross-product route (notes/algorithms.md §4, OpenSubdiv's osd/glslPatchCommon.glsl):
 // n = s_u x s_v, n_u = s_uu x s_v + s_u x s_uv, N_u = (n_u - N (N . n_u)) / |n|. Used as the
@@ -184,7 +194,7 @@ DM_TFUNC void dmNormalDerivCross(rvec3 su, rvec3 sv, rvec3 suu, rvec3 suv, rvec3
         Nv = rvec3(real(0));
     }
 }
-#line 87 "include/dispmap/kernels/normal.h"
+#line 93 "include/dispmap/kernels/normal.h"
 
 // Approximate displaced frame (§5.2): f_u = s_u + N D_u, f_v = s_v + N D_v, with
 // d1 = (D, D_u, D_v) in the face's parameters. Returns the unit normal (N where the frame
@@ -194,7 +204,7 @@ DM_TFUNC rvec3 dmDisplacedNormalApprox(rvec3 su, rvec3 sv, rvec3 N, rvec3 d1, DM
     fv = sv + N * d1.z;
     return dmSafeNormalize(cross(fu, fv), N);
 }
-#line 96 "include/dispmap/kernels/normal.h"
+#line 102 "include/dispmap/kernels/normal.h"
 
 // Accurate displaced frame (§5.1): f_u = s_u + N_u D + N D_u, f_v likewise.
 DM_TFUNC rvec3 dmDisplacedNormalAccurate(rvec3 su, rvec3 sv, rvec3 N, rvec3 Nu, rvec3 Nv, rvec3 d1,
@@ -203,7 +213,7 @@ DM_TFUNC rvec3 dmDisplacedNormalAccurate(rvec3 su, rvec3 sv, rvec3 N, rvec3 Nu, 
     fv = (sv + Nv * d1.x) + N * d1.z;
     return dmSafeNormalize(cross(fu, fv), N);
 }
-#line 104 "include/dispmap/kernels/normal.h"
+#line 110 "include/dispmap/kernels/normal.h"
 
 // Sine of the angle between the approximate displaced normal (frame a_u, a_v) and the one
 // with the Weingarten term D (N_u, N_v) added, i.e. the accurate normal for that D: how far
@@ -219,7 +229,7 @@ DM_TFUNC real dmWeingartenAngleSine(rvec3 au, rvec3 av, rvec3 Nu, rvec3 Nv, real
     }
     return real(1);
 }
-#line 119 "include/dispmap/kernels/normal.h"
+#line 125 "include/dispmap/kernels/normal.h"
 
 // §5.4: near an extraordinary vertex s_u and s_v are not consistently defined, so the normal
 // blends bilinearly towards the limit normal there. evNormal is the sum over the patch's

@@ -18,8 +18,9 @@
 // s_u and s_v falls under asin(sinMin) the Weingarten term is damped, never amplified further
 // (a near-singular parameterisation only amplifies rounding there; the true N_u stays bounded
 // by the curvature). Where s_u x s_v vanishes the normal falls back to the first-order Taylor
-// term n_u + n_v (as OpenSubdiv does), then to the caller's fallback; N_u = N_v = 0 there.
-// No kernel here returns NaN for finite input.
+// term towards the inside of the face, +-n_u +- n_v (OpenSubdiv uses n_u + n_v), then to the
+// caller's fallback; N_u = N_v = 0 there. No kernel here returns NaN for finite input of
+// moderate size (|s_u|^2 |s_v|^2 must not overflow).
 #include "dispmap/kernels/sum.h"
 #include "dispmap/kernels/prelude.h"
 
@@ -34,20 +35,25 @@ DM_TFUNC rvec3 dmSafeNormalize(rvec3 v, rvec3 fallback) {
     return fallback;
 }
 
-// The unit normal of s from its first derivatives, with the degenerate fallbacks described
-// above (second derivatives are needed only there).
-DM_TFUNC rvec3 dmBaseNormal(rvec3 su, rvec3 sv, rvec3 suu, rvec3 suv, rvec3 svv, rvec3 fallback) {
+// The unit normal of s at (u, v) from its first derivatives, with the degenerate fallbacks
+// described above (second derivatives are needed only there). Where s_u x s_v vanishes the
+// normal is the limit from inside the face: n(u + du, v + dv) ~ du n_u + dv n_v with (du, dv)
+// pointing into [0, 1]^2 from (u, v), so a degenerate point at u = 1 or v = 1 is not flipped.
+DM_TFUNC rvec3 dmBaseNormal(rvec3 su, rvec3 sv, rvec3 suu, rvec3 suv, rvec3 svv, rvec2 uv, rvec3 fallback) {
     rvec3 n = cross(su, sv);
     real l2 = dmDot3(n, n);
     if (l2 > real(0)) {
         return n * (real(1) / sqrt(l2));
     }
-    rvec3 taylor = (cross(suu, sv) + cross(su, suv)) + (cross(suv, sv) + cross(su, svv));
+    real du = uv.x < real(0.5) ? real(1) : real(-1);
+    real dv = uv.y < real(0.5) ? real(1) : real(-1);
+    rvec3 taylor = (cross(suu, sv) + cross(su, suv)) * du + (cross(suv, sv) + cross(su, svv)) * dv;
     return dmSafeNormalize(taylor, fallback);
 }
 
 // Weingarten equations (§5.1): N_u and N_v of the unit normal N of s. sinMin bounds the
-// first fundamental form below (see the header comment); 1e-3 in float, 1e-7 in double.
+// first fundamental form below (see the header comment); the library passes 1e-3 in float and
+// 1e-7 in double (displaced_surface.h, kSinMin).
 DM_TFUNC void dmNormalDerivWeingarten(rvec3 su, rvec3 sv, rvec3 suu, rvec3 suv, rvec3 svv, rvec3 N, real sinMin,
                                       DM_OUT(rvec3) Nu, DM_OUT(rvec3) Nv) {
     rvec3 n = cross(su, sv);
