@@ -11,16 +11,18 @@
 //    computed once per face (autoFaces()): at each point of a grid over the face, the angle the
 //    Weingarten term turns the approximate normal by (dmWeingartenAngleSine) with |D| widened
 //    by half a cell times |grad D| (either sign), largest over the grid, times kAutoMargin for
-//    what the grid misses. The bound is an
-//    estimate, not a proof, between the samples; the tests check the promise pointwise on
-//    every test mesh, at the finest level. At coarser mips (LOD) D and its gradient change,
+//    what the grid misses. Between the samples it is an estimate, not a proof; the tests
+//    check the promise pointwise on every test mesh, at the finest level. At coarser mips (LOD) D and its gradient change,
 //    and with them the angle (it vanishes where grad D = 0, and grows with |D| and |grad D|);
 //    the tests measured it only falling there, but the promise is stated for the finest level.
 // In end-cap patches at extraordinary corners the normal blends to the limit normal (§5.4).
 //
 // D comes from the TileSet with the §4.4 clamp always applied (so that tiles of different
 // sizes agree along their shared edges) and, for level of detail, at a resolution rho (the
-// log2 of the level size to read, §6.2), blending the two nearest levels.
+// log2 of the level size to read, §6.2), blending the two nearest levels. rho is in the tile's
+// own units: a sub-face of an N-gon (half an edge long) stores no level below s = 2, so where its
+// quad neighbour would read s = 1 the two sides of the T-junction differ; callers that pick rho
+// per vertex (tessellator.h) floor the resolution of sub-faces accordingly.
 #include <algorithm>
 #include <cmath>
 #include <limits>
