@@ -1364,6 +1364,24 @@ TEST_CASE("bad inputs: clear errors", "[surface]") {
     const ControlMesh other = dmtest::shape("catmark_nonquads");
     const TileSet otherTiles = buildTiles(other, uniformTileSizes(other, 2), [](int, double, double) { return 0.0; });
     CHECK_THROWS_WITH(DisplacedSurface(base, otherTiles), Contains("built for another mesh"));
+    // Same Ptex face count, other topology: the faces listed from the last (the hash differs).
+    MeshDescription permuted = mesh.description();
+    permuted.holes.clear();
+    {
+        std::vector<int> sizes(permuted.faceSizes.rbegin(), permuted.faceSizes.rend()), verts;
+        for (std::size_t f = permuted.faceSizes.size(); f-- > 0;) {
+            const auto at = permuted.faceVertices.begin() + mesh.faceOffset(static_cast<int>(f));
+            verts.insert(verts.end(), at, at + permuted.faceSizes[f]);
+        }
+        permuted.faceSizes = sizes;
+        permuted.faceVertices = verts;
+    }
+    const ControlMesh permutedMesh(permuted);
+    REQUIRE(permutedMesh.ptexFaceCount() == mesh.ptexFaceCount());
+    TileSet permutedTiles = buildTiles(permutedMesh, uniformTileSizes(permutedMesh, 2), [](int, double, double) { return 0.0; });
+    CHECK_THROWS_WITH(DisplacedSurface(base, permutedTiles), Contains("topology hashes differ"));
+    permutedTiles.topologyHash = 0; // a tile set without a fingerprint is taken on its count
+    CHECK_NOTHROW(DisplacedSurface(base, permutedTiles));
 
     // Auto options.
     for (double tol : {nan, -0.01, inf, -inf}) {

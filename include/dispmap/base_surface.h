@@ -73,6 +73,8 @@ class BaseSurface {
     /// True if the Ptex face lies in a face tagged as a hole (no surface there).
     bool isHole(int face) const { return hole_[checkedFace(face)] != 0; }
     const BaseSurfaceOptions& options() const { return options_; }
+    /// topologyHash of the mesh it was built from (TileSet::topologyHash of matching tiles).
+    std::uint64_t topologyHash() const { return topologyHash_; }
     const Far::PatchTable& patchTable() const { return *table_; }
     const Far::TopologyRefiner& refiner() const { return *refiner_; }
     const TileTopology& topology() const { return topology_; }
@@ -107,6 +109,7 @@ class BaseSurface {
     std::vector<std::array<std::uint8_t, 4>> evCorner_;
     std::vector<std::array<glm::dvec3, 4>> cornerNormal_;
     std::string name_;
+    std::uint64_t topologyHash_ = 0;
 };
 
 namespace detail {
@@ -122,7 +125,8 @@ template <> inline const std::vector<glm::dvec3>& BaseSurface::points<double>() 
 template <> inline const std::vector<glm::vec3>& BaseSurface::points<float>() const { return pointsF_; }
 
 inline BaseSurface::BaseSurface(const ControlMesh& mesh, BaseSurfaceOptions options)
-    : options_(options), faceCount_(mesh.ptexFaceCount()), topology_(mesh), name_(mesh.description().name) {
+    : options_(options), faceCount_(mesh.ptexFaceCount()), topology_(mesh), name_(mesh.description().name),
+      topologyHash_(dispmap::topologyHash(mesh)) {
     if (options.isolationLevel < 1 || options.isolationLevel > 10)
         throw ArgumentError("isolation level " + std::to_string(options.isolationLevel) + " out of range [1, 10]");
     refiner_ = mesh.createRefiner();

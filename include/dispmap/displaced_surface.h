@@ -72,7 +72,8 @@ struct DisplacedSurfaceOptions {
 
 class DisplacedSurface {
   public:
-    /// Throws ArgumentError if the tiles do not belong to the surface's mesh (count) or the
+    /// Throws ArgumentError if the tiles do not belong to the surface's mesh (tile count, or the
+    /// topology hash where the tile set has one) or the
     /// options are out of range (tolerance not finite or < 0, fewer than 2 samples).
     DisplacedSurface(const BaseSurface& base, const TileSet& tiles, DisplacedSurfaceOptions options = {});
     /// The surface keeps pointers to the base and the tiles: temporaries would dangle.
@@ -189,6 +190,8 @@ inline DisplacedSurface::DisplacedSurface(const BaseSurface& base, const TileSet
     if (tiles.tileCount() != base.faceCount())
         throw ArgumentError("the tile set has " + std::to_string(tiles.tileCount()) + " tiles but the surface has " +
                             std::to_string(base.faceCount()) + " Ptex faces: it was built for another mesh");
+    if (tiles.topologyHash != 0 && tiles.topologyHash != base.topologyHash())
+        throw ArgumentError("the tile set was built for another mesh topology than the surface (topology hashes differ)");
     if (!std::isfinite(options.autoTolerance) || options.autoTolerance < 0.0)
         throw ArgumentError("auto-normal tolerance must be a finite angle >= 0 (radians)");
     if (options.autoSamples < 2 || options.autoSamples > 1024)

@@ -4,6 +4,7 @@
 // into OpenSubdiv's Far::TopologyRefiner and Far::PtexIndices. Topology questions are
 // answered by OpenSubdiv; this file only carries the data in and checks it.
 #include <cmath>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <utility>
@@ -252,6 +253,20 @@ inline std::unique_ptr<Far::TopologyRefiner> ControlMesh::createRefiner() const 
     Far::SetErrorCallback(nullptr);
     if (!r) throw MeshError(n + ": OpenSubdiv rejected the topology: " + detail::farMessages());
     return std::unique_ptr<Far::TopologyRefiner>(r);
+}
+
+/// 64-bit FNV-1a fingerprint of the mesh topology (face sizes and face vertices).
+inline std::uint64_t topologyHash(const ControlMesh& mesh) {
+    std::uint64_t h = 1469598103934665603ull;
+    auto mix = [&](int v) {
+        for (int b = 0; b < 4; ++b) {
+            h ^= static_cast<std::uint64_t>((static_cast<unsigned>(v) >> (8 * b)) & 0xFFu);
+            h *= 1099511628211ull;
+        }
+    };
+    for (int s : mesh.description().faceSizes) mix(s);
+    for (int v : mesh.description().faceVertices) mix(v);
+    return h;
 }
 
 inline ControlMesh ControlMesh::fromObjFile(const std::string& path) {

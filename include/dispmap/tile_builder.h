@@ -91,20 +91,6 @@ inline std::vector<int> uniformTileSizes(const ControlMesh& mesh, int k) {
     return out;
 }
 
-/// 64-bit FNV-1a fingerprint of the mesh topology (face sizes and face vertices).
-inline std::uint64_t topologyHash(const ControlMesh& mesh) {
-    std::uint64_t h = 1469598103934665603ull;
-    auto mix = [&](int v) {
-        for (int b = 0; b < 4; ++b) {
-            h ^= static_cast<std::uint64_t>((static_cast<unsigned>(v) >> (8 * b)) & 0xFFu);
-            h *= 1099511628211ull;
-        }
-    };
-    for (int s : mesh.description().faceSizes) mix(s);
-    for (int v : mesh.description().faceVertices) mix(v);
-    return h;
-}
-
 /// A UV-mapped height image as a displacement source: D = offset + scale * h(uv), with uv
 /// interpolated bilinearly over each Ptex face from the face's texture coordinates (for a
 /// sub-face: corner, edge midpoints, centroid). Throws ArgumentError if the mesh has no
