@@ -103,6 +103,42 @@ ControlMesh loadMesh(const SourceArgs& a, const char* command) {
     return ControlMesh::fromObjFile(a.mesh);
 }
 
+// The surface options `eval` and `tessellate` share.
+struct SurfaceArgs {
+    int isolation = 6;
+    double autoToleranceDeg = 2.0;
+};
+
+void addSurfaceOptions(CLI::App* cmd, SurfaceArgs& a) {
+    cmd->add_option("--isolation", a.isolation, "OpenSubdiv adaptive isolation level (1..10)");
+    cmd->add_option("--auto-tolerance", a.autoToleranceDeg, "auto normals: accepted error in degrees");
+}
+
+BaseSurfaceOptions baseOptions(const SurfaceArgs& a) {
+    BaseSurfaceOptions o;
+    o.isolationLevel = a.isolation;
+    return o;
+}
+
+DisplacedSurfaceOptions displacedOptions(const SurfaceArgs& a) {
+    if (!std::isfinite(a.autoToleranceDeg) || a.autoToleranceDeg < 0)
+        throw ArgumentError("--auto-tolerance must be a finite angle >= 0 (degrees)");
+    DisplacedSurfaceOptions o;
+    o.autoTolerance = a.autoToleranceDeg * 3.14159265358979323846 / 180.0;
+    return o;
+}
+
+// Mesh, tiles and surfaces built once and kept together: the surfaces point at the others.
+struct LoadedSurface {
+    ControlMesh mesh;
+    TileSet tiles;
+    BaseSurface base;
+    DisplacedSurface surface;
+    LoadedSurface(const SourceArgs& source, const SurfaceArgs& a, const char* command)
+        : mesh(loadMesh(source, command)), tiles(makeTiles(mesh, source, nullptr)), base(mesh, baseOptions(a)),
+          surface(base, tiles, displacedOptions(a)) {}
+};
+
 int tiles(const SourceArgs& a, const std::string& output) {
     if (!a.load.empty() && a.mesh.empty()) {
         TileSet ts = loadTiles(a.load);
@@ -124,9 +160,10 @@ int tiles(const SourceArgs& a, const std::string& output) {
 
 struct EvalArgs {
     SourceArgs source;
+    SurfaceArgs surface;
     std::vector<std::string> at;
-    int grid = 0, isolation = 6;
-    double autoToleranceDeg = 2.0, rho = kFinest;
+    int grid = 0;
+    double rho = kFinest;
     bool single = false;
     std::string output;
 };
@@ -173,25 +210,18 @@ template <typename real> nlohmann::json evalPoint(const DisplacedSurface& ds, in
 }
 
 int eval(const EvalArgs& a) {
-    const ControlMesh mesh = loadMesh(a.source, "eval");
-    if (!(a.autoToleranceDeg >= 0.0) || !std::isfinite(a.autoToleranceDeg))
-        throw ArgumentError("eval: --auto-tolerance must be a finite angle >= 0 (degrees)");
     if (std::isnan(a.rho)) throw ArgumentError("eval: --rho must be a number");
     if (a.grid < 0 || a.grid > 1024) throw ArgumentError("eval: --grid must be in [0, 1024]");
     if (a.at.empty() && a.grid == 0) throw ArgumentError("eval: give points with --at face,u,v or --grid N");
-    const TileSet ts = makeTiles(mesh, a.source, nullptr);
-    BaseSurfaceOptions bo;
-    bo.isolationLevel = a.isolation;
-    const BaseSurface base(mesh, bo);
-    DisplacedSurfaceOptions o;
-    o.autoTolerance = a.autoToleranceDeg * 3.14159265358979323846 / 180.0;
-    const DisplacedSurface ds(base, ts, o);
+    const LoadedSurface loaded(a.source, a.surface, "eval");
+    const BaseSurface& base = loaded.base;
+    const DisplacedSurface& ds = loaded.surface;
     nlohmann::json out;
     out["mesh"] = a.source.mesh;
     out["ptexFaces"] = base.faceCount();
-    out["isolationLevel"] = a.isolation;
+    out["isolationLevel"] = a.surface.isolation;
     out["precision"] = a.single ? "float" : "double";
-    out["autoToleranceDegrees"] = a.autoToleranceDeg;
+    out["autoToleranceDegrees"] = a.surface.autoToleranceDeg;
     out["autoAccurateFaces"] = ds.autoAccurateCount();
     nlohmann::json points = nlohmann::json::array();
     auto one = [&](int f, double u, double v) {
@@ -221,41 +251,31 @@ int eval(const EvalArgs& a) {
 
 struct TessellateArgs {
     SourceArgs source;
+    SurfaceArgs surface;
     TessellateOptions options;
     std::string output, eye;
-    double factor = 8, distance = 0, maxFactor = 64, autoToleranceDeg = 2.0;
-    int isolation = 6;
+    double factor = 8, distance = 0;
 };
 
 int tessellateCommand(const TessellateArgs& a) {
-    const ControlMesh mesh = loadMesh(a.source, "tessellate");
     if (a.output.empty()) throw ArgumentError("tessellate: give -o out.obj or out.ply");
     const bool ply = a.output.size() > 4 && a.output.compare(a.output.size() - 4, 4, ".ply") == 0;
     const bool obj = a.output.size() > 4 && a.output.compare(a.output.size() - 4, 4, ".obj") == 0;
     if (!ply && !obj) throw ArgumentError("tessellate: -o must name a .obj or a .ply file");
-    TessellateOptions o = a.options;
-    o.maxFactor = a.maxFactor;
-    const TileSet ts = makeTiles(mesh, a.source, nullptr);
-    BaseSurfaceOptions bo;
-    bo.isolationLevel = a.isolation;
-    const BaseSurface base(mesh, bo);
-    DisplacedSurfaceOptions dso;
-    if (!std::isfinite(a.autoToleranceDeg) || a.autoToleranceDeg < 0)
-        throw ArgumentError("tessellate: --auto-tolerance must be a finite angle >= 0 (degrees)");
-    dso.autoTolerance = a.autoToleranceDeg * 3.14159265358979323846 / 180.0;
-    const DisplacedSurface ds(base, ts, dso);
+    const LoadedSurface loaded(a.source, a.surface, "tessellate");
+    const BaseSurface& base = loaded.base;
     const TessFactors factors = a.eye.empty() ? uniformTessFactors(base, a.factor)
                                               : distanceTessFactors(base, parseTriple(a.eye, "--eye x,y,z"), a.distance);
     const auto t0 = std::chrono::steady_clock::now();
-    const TriangleMesh m = tessellate(ds, factors, o);
+    const TriangleMesh m = tessellate(loaded.surface, factors, a.options);
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     if (ply)
         writePly(m, a.output);
     else
         writeObj(m, a.output);
     std::cout << "tessellated " << base.faceCount() << " faces into " << m.triangleCount() << " triangles, "
-              << m.vertexCount() << " vertices in " << ms << " ms (normals " << toString(o.normals) << ", spacing "
-              << toString(o.spacing) << ", mips " << toString(o.mips) << "); wrote " << a.output << "\n";
+              << m.vertexCount() << " vertices in " << ms << " ms (normals " << toString(a.options.normals) << ", spacing "
+              << toString(a.options.spacing) << ", mips " << toString(a.options.mips) << "); wrote " << a.output << "\n";
     return 0;
 }
 
@@ -305,8 +325,7 @@ int main(int argc, char** argv) {
     addSourceOptions(evalCmd, ea.source);
     evalCmd->add_option("--at", ea.at, "a point: face,u,v (Ptex face id; repeat for more)");
     evalCmd->add_option("--grid", ea.grid, "also N x N cell centres on every face");
-    evalCmd->add_option("--isolation", ea.isolation, "OpenSubdiv adaptive isolation level (1..10)");
-    evalCmd->add_option("--auto-tolerance", ea.autoToleranceDeg, "auto normals: accepted error in degrees");
+    addSurfaceOptions(evalCmd, ea.surface);
     evalCmd->add_option("--rho", ea.rho, "mip resolution to read (log2 of the level size; default: finest)");
     evalCmd->add_flag("--float", ea.single, "evaluate in single precision (default: double)");
     evalCmd->add_option("-o,--output", ea.output, "write the JSON here instead of standard output");
@@ -318,19 +337,18 @@ int main(int argc, char** argv) {
     tessCmd->add_option("--factor", ts.factor, "uniform tessellation factor (segments per base edge)");
     tessCmd->add_option("--eye", ts.eye, "x,y,z: distance-based factors c / |eye - vertex| instead (with --c)");
     tessCmd->add_option("--c", ts.distance, "constant of the distance-based factors");
-    tessCmd->add_option("--max-factor", ts.maxFactor, "clamp of the factors (default 64, the hardware limit)");
+    tessCmd->add_option("--max-factor", ts.options.maxFactor, "clamp of the factors (default 64, the hardware limit)");
+    addSurfaceOptions(tessCmd, ts.surface);
     tessCmd->add_option("--normals", ts.options.normals, "approximate, accurate or auto")
         ->transform(CLI::CheckedTransformer(std::map<std::string, NormalMode>{{"approximate", NormalMode::Approximate},
                                                                               {"accurate", NormalMode::Accurate},
                                                                               {"auto", NormalMode::Auto}}));
-    tessCmd->add_option("--auto-tolerance", ts.autoToleranceDeg, "auto normals: accepted error in degrees");
     tessCmd->add_option("--spacing", ts.options.spacing, "fractional (continuous, like fractional_even) or integer")
         ->transform(CLI::CheckedTransformer(
             std::map<std::string, Spacing>{{"fractional", Spacing::FractionalEven}, {"integer", Spacing::Integer}}));
     tessCmd->add_option("--mips", ts.options.mips, "mip selection from the factor: off, tf (log2 TF, paper 6.2), seed004")
         ->transform(CLI::CheckedTransformer(std::map<std::string, MipSelection>{
             {"off", MipSelection::Off}, {"tf", MipSelection::TessFactor}, {"seed004", MipSelection::Seed004}}));
-    tessCmd->add_option("--isolation", ts.isolation, "OpenSubdiv adaptive isolation level (1..10)");
     auto* benchCmd = app.add_subcommand("bench", "mip accuracy table and timings (Google Benchmark flags pass through)");
     std::string csv;
     benchCmd->add_option("--csv", csv, "also write the mip table as CSV");

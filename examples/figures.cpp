@@ -4,6 +4,7 @@
 
 #include "dispmap/displaced_surface.h"
 #include "dispmap/file_io.h"
+#include "dispmap/swimming.h"
 #include "dispmap/tessellator.h"
 
 #include <chrono>
@@ -421,16 +422,7 @@ void printTessellationTable(std::ostream& out, const std::string& csvPath) {
     const TileSet ts = buildTiles(mesh, uniformTileSizes(mesh, 5), defaultDisplacement);
     const DisplacedSurface ds(base, ts);
     // The true surface f (finest D) at fixed points, against the piecewise-linear tessellation.
-    std::mt19937 rng(5);
-    std::uniform_real_distribution<double> U(0, 1);
-    std::vector<int> faces;
-    std::vector<glm::dvec2> uv;
-    std::vector<glm::dvec3> truth;
-    for (int i = 0; i < 4096; ++i) {
-        faces.push_back(int(rng() % unsigned(base.faceCount())));
-        uv.emplace_back(U(rng), U(rng));
-        truth.push_back(ds.evaluate<double>(faces.back(), uv.back().x, uv.back().y, NormalMode::Approximate).position);
-    }
+    const SurfaceProbe probe = probeSurface(ds, 4096, 5);
     out << "Tessellation factor (default scene, k = 5, integer spacing, approximate normals): distance from the\n"
         << "  tessellation to the displaced surface f (finest level) at 4096 random points, relative to the cage\n"
         << "  size (2); with mips the target is the mip-filtered surface, so the distance to f stays larger;\n"
@@ -451,12 +443,12 @@ void printTessellationTable(std::ostream& out, const std::string& csvPath) {
             }
             const TriangleLocator loc(m, base.faceCount());
             double se = 0, mx = 0;
-            for (std::size_t i = 0; i < faces.size(); ++i) {
-                const double d = glm::length(loc.position(faces[i], uv[i]) - truth[i]) / 2.0;
+            for (std::size_t i = 0; i < probe.faces.size(); ++i) {
+                const double d = glm::length(loc.position(probe.faces[i], probe.uvs[i]) - probe.truth[i]) / 2.0;
                 se += d * d;
                 mx = std::max(mx, d);
             }
-            const double rms = std::sqrt(se / double(faces.size()));
+            const double rms = std::sqrt(se / double(probe.faces.size()));
             const char* mipName = mips == MipSelection::Off ? "off" : "tf";
             out << std::setw(8) << T << std::setw(6) << mipName << std::setw(12) << m.triangleCount() << std::fixed
                 << std::setprecision(2) << std::setw(10) << ms << std::scientific << std::setprecision(2) << std::setw(15)

@@ -84,6 +84,9 @@ class BaseSurface {
     /// extraordinary corner (see above), and the limit normal there.
     bool isExtraordinaryCorner(int face, int c) const { return evCorner_[checkedFace(face)][static_cast<std::size_t>(c & 3)] != 0; }
     glm::dvec3 cornerNormal(int face, int c) const { return cornerNormal_[checkedFace(face)][static_cast<std::size_t>(c & 3)]; }
+    /// Throws ArgumentError naming the mesh unless `face` is a Ptex face id and (u, v) a finite
+    /// point of [0, 1]^2.
+    template <typename real> void checkPoint(int face, real u, real v) const;
     /// `face` as an index; throws ArgumentError naming the mesh if it is not a Ptex face id.
     std::size_t checkedFace(int face) const {
         if (face < 0 || face >= faceCount_)
@@ -192,14 +195,14 @@ inline BaseSurface::BaseSurface(const ControlMesh& mesh, BaseSurfaceOptions opti
     // end caps approximate it).
     evCorner_.assign(static_cast<std::size_t>(faceCount_), {0, 0, 0, 0});
     cornerNormal_.assign(static_cast<std::size_t>(faceCount_), {});
-    static const double cu[4] = {0, 1, 1, 0}, cv[4] = {0, 0, 1, 1};
     for (int f = 0; f < faceCount_; ++f) {
         if (isHole(f)) continue;
         for (int c = 0; c < 4; ++c) {
-            const BaseSample<double> s = evaluate<double>(f, cu[c], cv[c], true);
+            const glm::dvec2 uv = TileTopology::cornerUV(c);
+            const BaseSample<double> s = evaluate<double>(f, uv.x, uv.y, true);
             const glm::dvec3 fallback(0, 0, 1);
             cornerNormal_[static_cast<std::size_t>(f)][static_cast<std::size_t>(c)] =
-                kern::dmBaseNormal(s.du, s.dv, s.duu, s.duv, s.dvv, glm::dvec2(cu[c], cv[c]), fallback);
+                kern::dmBaseNormal(s.du, s.dv, s.duu, s.duv, s.dvv, uv, fallback);
             const int vtx = topology_.cornerVertex(f, c);
             evCorner_[static_cast<std::size_t>(f)][static_cast<std::size_t>(c)] =
                 topology_.kind(vtx) == TileTopology::VertexKind::Constrained ? 1 : 0;
@@ -207,12 +210,16 @@ inline BaseSurface::BaseSurface(const ControlMesh& mesh, BaseSurfaceOptions opti
     }
 }
 
-template <typename real> BaseSample<real> BaseSurface::evaluate(int face, real u, real v, bool second) const {
+template <typename real> void BaseSurface::checkPoint(int face, real u, real v) const {
     checkedFace(face);
     if (!(u >= real(0) && u <= real(1) && v >= real(0) && v <= real(1)))
         throw ArgumentError(name_ + ": (u, v) = (" + std::to_string(static_cast<double>(u)) + ", " +
                             std::to_string(static_cast<double>(v)) + ") of face " + std::to_string(face) +
                             " is not in [0, 1]^2");
+}
+
+template <typename real> BaseSample<real> BaseSurface::evaluate(int face, real u, real v, bool second) const {
+    checkPoint(face, u, v);
     const Far::PatchTable::PatchHandle* h = map_->FindPatch(face, static_cast<double>(u), static_cast<double>(v));
     if (!h) throw ArgumentError(name_ + ": face " + std::to_string(face) + " is a hole (no surface to evaluate)");
     real w[20], wu[20], wv[20], wuu[20], wuv[20], wvv[20];

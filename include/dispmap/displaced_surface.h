@@ -112,12 +112,11 @@ class DisplacedSurface {
 };
 
 template <typename real> void DisplacedSurface::check(int face, real u, real v, real rho, bool uv) const {
-    base_->checkedFace(face);
+    if (uv)
+        base_->checkPoint(face, u, v);
+    else
+        base_->checkedFace(face);
     if (std::isnan(rho)) throw ArgumentError("displaced surface: resolution rho is NaN (face " + std::to_string(face) + ")");
-    if (uv && !(u >= real(0) && u <= real(1) && v >= real(0) && v <= real(1)))
-        throw ArgumentError("displaced surface: (u, v) = (" + std::to_string(static_cast<double>(u)) + ", " +
-                            std::to_string(static_cast<double>(v)) + ") of face " + std::to_string(face) +
-                            " is not in [0, 1]^2");
 }
 
 template <typename real> glm::vec<3, real> DisplacedSurface::displacement(int face, real u, real v, real rho) const {
@@ -128,17 +127,7 @@ template <typename real> glm::vec<3, real> DisplacedSurface::displacement(int fa
 template <typename real> glm::vec<3, real> DisplacedSurface::displacementAt(int face, real u, real v, real rho) const {
     const Tile& t = tiles_->tiles[static_cast<std::size_t>(face)];
     const glm::vec<2, real> uv(u, v);
-    // TileSet::evaluateD1 inlined without its range checks (face and levels are valid here).
-    auto level = [&](int m) {
-        const int s = t.size() >> m, row = s + 2;
-        glm::ivec2 cell;
-        const glm::vec<2, real> local = kern::dmSubpatch(uv, s, cell);
-        const float* c0 = t.level(m) + cell.y * row + cell.x;
-        glm::mat<3, 3, real> c;
-        for (int i = 0; i < 3; ++i)
-            for (int j = 0; j < 3; ++j) c[i][j] = static_cast<real>(c0[j * row + i]);
-        return kern::dmTileD1(c, local, s);
-    };
+    auto level = [&](int m) { return tiles_->evaluateD1(face, m, uv); };
     // Finest level with no smaller tile at any corner: dmSelectMips would pick level 0 alone.
     // Said directly, because the selection's latency sits in front of the loads (measured:
     // 18 of 38 ns).

@@ -72,30 +72,47 @@ inline std::string swimSettingName(MipSelection m) {
     }
 }
 
+/// Fixed random points (face, u, v) on the faces that are not holes, and the displaced surface
+/// f there (finest level): what a tessellation is measured against.
+struct SurfaceProbe {
+    std::vector<int> faces;
+    std::vector<glm::dvec2> uvs;
+    std::vector<glm::dvec3> truth;
+};
+
+/// `samples` points drawn with `seed`. Throws ArgumentError for samples < 1 or a surface whose
+/// faces are all holes.
+inline SurfaceProbe probeSurface(const DisplacedSurface& surface, int samples, std::uint32_t seed) {
+    if (samples < 1) throw ArgumentError("a surface probe needs at least one sample point");
+    const BaseSurface& base = surface.base();
+    std::vector<int> faces;
+    for (int f = 0; f < base.faceCount(); ++f)
+        if (!base.isHole(f)) faces.push_back(f);
+    if (faces.empty()) throw ArgumentError("surface probe: every face is a hole");
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> U(0.0, 1.0);
+    SurfaceProbe p;
+    for (int i = 0; i < samples; ++i) {
+        p.faces.push_back(faces[static_cast<std::size_t>(rng() % faces.size())]);
+        p.uvs.emplace_back(U(rng), U(rng));
+        p.truth.push_back(surface.evaluate<double>(p.faces.back(), p.uvs.back().x, p.uvs.back().y, NormalMode::Approximate).position);
+    }
+    return p;
+}
+
 /// Sweeps the factor and measures swimming and accuracy per setting (see the header).
 inline std::vector<SwimRow> measureSwimming(const DisplacedSurface& surface, const SwimOptions& o = {}) {
     if (!std::isfinite(o.tMin) || !std::isfinite(o.tMax) || !std::isfinite(o.dT) || o.tMin < 1.0 || o.tMax <= o.tMin ||
         !(o.dT > 0.0) || (o.tMax - o.tMin) / o.dT > 100000.0)
         throw ArgumentError("swim sweep [" + std::to_string(o.tMin) + ", " + std::to_string(o.tMax) + "] step " +
                             std::to_string(o.dT) + " is invalid: need 1 <= tMin < tMax, dT > 0, at most 1e5 steps");
-    if (o.samples < 1) throw ArgumentError("swim measure needs at least one sample point");
     const BaseSurface& base = surface.base();
-    std::vector<int> faces;
-    for (int f = 0; f < base.faceCount(); ++f)
-        if (!base.isHole(f)) faces.push_back(f);
-    if (faces.empty()) throw ArgumentError("swim measure: every face is a hole");
-
-    std::mt19937 rng(o.seed);
-    std::uniform_real_distribution<double> U(0.0, 1.0);
-    std::vector<int> sf(static_cast<std::size_t>(o.samples));
-    std::vector<glm::dvec2> suv(sf.size());
-    std::vector<glm::dvec3> truth(sf.size()), truthBase(sf.size());
-    for (std::size_t i = 0; i < sf.size(); ++i) {
-        sf[i] = faces[static_cast<std::size_t>(rng() % faces.size())];
-        suv[i] = glm::dvec2(U(rng), U(rng));
-        truth[i] = surface.evaluate<double>(sf[i], suv[i].x, suv[i].y, NormalMode::Approximate).position;
-        truthBase[i] = base.evaluate<double>(sf[i], suv[i].x, suv[i].y, false).p;
-    }
+    const SurfaceProbe probe = probeSurface(surface, o.samples, o.seed);
+    const std::vector<int>& sf = probe.faces;
+    const std::vector<glm::dvec2>& suv = probe.uvs;
+    const std::vector<glm::dvec3>& truth = probe.truth;
+    std::vector<glm::dvec3> truthBase(sf.size());
+    for (std::size_t i = 0; i < sf.size(); ++i) truthBase[i] = base.evaluate<double>(sf[i], suv[i].x, suv[i].y, false).p;
     const int steps = static_cast<int>(std::floor((o.tMax - o.tMin) / o.dT + 1e-9));
 
     // The baseline: the same tiles with every coefficient 0.

@@ -204,14 +204,14 @@ inline TessFactors uniformTessFactors(const BaseSurface& base, double T) {
 /// The limit position s of every base vertex: s at a Ptex corner of the vertex that is not in
 /// a hole, else the control point.
 inline std::vector<glm::dvec3> baseVertexLimitPositions(const BaseSurface& base) {
-    static const double cu[4] = {0, 1, 1, 0}, cv[4] = {0, 0, 1, 1};
     const int nv = detail::baseLevel(base).GetNumVertices();
     std::vector<glm::dvec3> p(static_cast<std::size_t>(nv));
     for (int v = 0; v < nv; ++v) {
         p[static_cast<std::size_t>(v)] = base.points()[static_cast<std::size_t>(v)];
         for (const auto& [t, c] : base.topology().incidences(v))
             if (!base.isHole(t)) {
-                p[static_cast<std::size_t>(v)] = base.evaluate<double>(t, cu[c], cv[c], false).p;
+                const glm::dvec2 uv = TileTopology::cornerUV(c);
+                p[static_cast<std::size_t>(v)] = base.evaluate<double>(t, uv.x, uv.y, false).p;
                 break;
             }
     }
@@ -360,7 +360,6 @@ inline double Tessellator::resolution(int face, double u, double v) const {
 
 inline void Tessellator::tile(Build& b, int t) const {
     const TileTopology& topo = surface_->base().topology();
-    static const glm::dvec2 cornerUV[4] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
     // (u, v) of edge e at edge parameter y (0 at corner e, 1 at corner e + 1).
     auto edgeUV = [](int e, double y) {
         switch (e) {
@@ -372,7 +371,7 @@ inline void Tessellator::tile(Build& b, int t) const {
     };
     auto cornerIndex = [&](int c) {
         int& at = b.corner[static_cast<std::size_t>(topo.cornerVertex(t, c))];
-        if (at < 0) at = b.add(t, cornerUV[c]);
+        if (at < 0) at = b.add(t, TileTopology::cornerUV(c));
         return at;
     };
 
@@ -425,7 +424,7 @@ inline void Tessellator::tile(Build& b, int t) const {
         } else {
             segment(e, A, B, cA, cB, 0.0, 1.0, pts);
         }
-        pts.push_back({cB, cornerUV[(e + 1) & 3], 1.0});
+        pts.push_back({cB, TileTopology::cornerUV(e + 1), 1.0});
     }
 
     auto emit = [&](const Point& p0, const Point& p1, const Point& p2) {

@@ -47,6 +47,8 @@ class TileTopology {
     int subFace(int t) const { return sub_[idx(t)]; }
     /// 1 for a sub-face tile (its edges are half as long in the base mesh), 0 for a quad.
     int scale(int t) const { return subFace(t) < 0 ? 0 : 1; }
+    /// (u, v) of tile corner c: 0 at (0,0), 1 at (1,0), 2 at (1,1), 3 at (0,1).
+    static glm::dvec2 cornerUV(int c) { return glm::dvec2((c & 3) == 1 || (c & 3) == 2 ? 1.0 : 0.0, (c & 3) >= 2 ? 1.0 : 0.0); }
     int cornerVertex(int t, int c) const { return corners_[idx(t)][static_cast<std::size_t>(c & 3)]; }
     const std::vector<Link>& links(int t, int e) const { return links_[idx(t)][static_cast<std::size_t>(e & 3)]; }
     int vertexCount() const { return static_cast<int>(incidence_.size()); }
