@@ -422,6 +422,7 @@ std::string emitPrelude() {
            "#ifndef DISPMAP_GLSL_PRELUDE\n#define DISPMAP_GLSL_PRELUDE\n"
            "#extension GL_GOOGLE_cpp_style_line_directive : enable\n"
            "#define DM_FUNC\n#define DM_TFUNC\n#define DM_OUT(T) out T\n#define DM_INOUT(T) inout T\n"
+           "#define DM_OUT_ARRAY(T) out T\n"
            "#endif // DISPMAP_GLSL_PRELUDE\n";
 }
 

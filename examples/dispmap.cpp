@@ -5,6 +5,7 @@
 //   dispmap tessellate --mesh M.obj -o out.ply   a watertight triangle mesh of the displaced surface
 //   dispmap bench [gbench args]       the benchmark table and the timings
 //   dispmap parity                    every kernel on the GPU (lavapipe by default) against C++
+//   dispmap render [SCENE] -o out.png render a scene file (or the embedded default) headless
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
@@ -26,6 +27,7 @@
 #include "figures.h"
 #include "swim.h"
 #include "parity.h"
+#include "render.h"
 
 using namespace dispmap;
 
@@ -41,6 +43,9 @@ int demo(bool quick) {
     figures::printNormalTable(std::cout, "");
     std::cout << "\n";
     figures::printSwimFigure(std::cout, "");
+    std::cout << "\n";
+    figures::printRenderTable(std::cout, {"dispmap-demo", "", quick ? 2 : 3, !quick, ""});
+    std::cout << "(images in dispmap-demo/)\n";
     std::cout << "\nTimings (Google Benchmark" << (quick ? ", short runs" : "") << "):\n" << std::flush;
     std::vector<std::string> flags;
     if (quick) flags.push_back("--benchmark_min_time=0.05");
@@ -367,6 +372,20 @@ int main(int argc, char** argv) {
     parityCmd->add_flag("--validation", pa.validation, "enable the validation layer; any message fails");
     parityCmd->add_flag("--strict", pa.strict, "hold exact kernels to 0 ULP whatever the device");
     parityCmd->add_flag("--fused", pa.loose, "allow FMA contraction on exact kernels whatever the device");
+    figures::RenderArgs ra;
+    auto* renderCmd = app.add_subcommand("render", "render a scene (JSON; none: the embedded default) headless with "
+                                                    "hardware tessellation, print GPU time, patches, triangles");
+    renderCmd->add_option("scene", ra.scene, "scene file (JSON)");
+    renderCmd->add_option("-o,--output", ra.output, "write the image (PNG)");
+    renderCmd->add_option("--frames", ra.frames, "timed frames (after one warm-up frame)");
+    renderCmd->add_option("--faces-per-draw", ra.facesPerDraw, "patches per draw call");
+    renderCmd->add_option("--device", ra.device, "Vulkan device: index or name substring (default: lavapipe)");
+    renderCmd->add_flag("--validation", ra.validation, "enable the validation layer; any message fails");
+    std::string renderCsv, renderImages;
+    int renderFrames = 5;
+    benchCmd->add_option("--render-csv", renderCsv, "also write the renderer table as CSV");
+    benchCmd->add_option("--render-images", renderImages, "write the renderer table's images (PNG) to this folder");
+    benchCmd->add_option("--render-frames", renderFrames, "timed frames per renderer row");
     CLI11_PARSE(app, argc, argv);
     try {
         if (*demoCmd) return demo(quick);
@@ -374,6 +393,7 @@ int main(int argc, char** argv) {
         if (*evalCmd) return eval(ea);
         if (*tessCmd) return tessellateCommand(ts);
         if (*parityCmd) return runParity(pa);
+        if (*renderCmd) return figures::renderCommand(ra);
         if (*benchCmd) {
             figures::printMipTable(std::cout, csv);
             std::cout << "\n";
@@ -384,6 +404,8 @@ int main(int argc, char** argv) {
             figures::printSwimFigure(std::cout, swimCsv);
             std::cout << "\n";
             figures::printTessellationTable(std::cout, tessCsv);
+            std::cout << "\n";
+            figures::printRenderTable(std::cout, {renderImages, renderCsv, renderFrames, true, ""});
             std::cout << "\n";
             return figures::runBenchmarks(benchCmd->remaining());
         }

@@ -2,6 +2,7 @@
 
 #include <benchmark/benchmark.h>
 
+#include "dispmap/builtin.h"
 #include "dispmap/displaced_surface.h"
 #include "dispmap/file_io.h"
 #include "dispmap/swimming.h"
@@ -19,73 +20,9 @@
 
 namespace dispmap::figures {
 
-namespace {
-// A CSV table kept in memory and written atomically by commit() (nothing when the path is
-// empty), so that a failed run never leaves half a table.
-struct CsvOut {
-    std::string path;
-    std::ostringstream text;
-    CsvOut(std::string p, const char* header) : path(std::move(p)) { text << header << "\n"; }
-    explicit operator bool() const { return !path.empty(); }
-    template <typename T> CsvOut& operator<<(const T& x) {
-        text << x;
-        return *this;
-    }
-    void commit() {
-        if (path.empty()) return;
-        const std::string t = text.str();
-        detail::writeFileAtomically(path, std::vector<unsigned char>(t.begin(), t.end()), "CSV table");
-    }
-};
 
-// A torus cage of n x m quads, main radius R, tube radius r.
-ControlMesh torusCage(int n, int m, double R, double r, const std::string& name) {
-    const double tau = 6.283185307179586;
-    std::string obj;
-    for (int j = 0; j < m; ++j)
-        for (int i = 0; i < n; ++i) {
-            const double a = tau * i / n, b = tau * j / m, w = R + r * std::cos(b);
-            obj += "v " + std::to_string(w * std::cos(a)) + " " + std::to_string(w * std::sin(a)) + " " +
-                   std::to_string(r * std::sin(b)) + "\n";
-        }
-    for (int j = 0; j < m; ++j)
-        for (int i = 0; i < n; ++i) {
-            auto id = [&](int a, int b) { return std::to_string((b % m) * n + (a % n) + 1); };
-            obj += "f " + id(i, j) + " " + id(i + 1, j) + " " + id(i + 1, j + 1) + " " + id(i, j + 1) + "\n";
-        }
-    return ControlMesh::fromObjText(obj, name);
-}
-
-} // namespace
-
-ControlMesh defaultMesh() {
-    // A box whose top is split into a pentagon and a triangle: valence-3 corners, valence-5
-    // and valence-4 vertices, two non-quad faces (so T-junctions with their quad neighbours).
-    static const char* obj = R"(v -1 -1 -1
-v 1 -1 -1
-v 1 1 -1
-v -1 1 -1
-v -1 -1 1
-v 1 -1 1
-v 1 1 1
-v -1 1 1
-v 0 -1 1
-v 0 1 1
-f 1 4 3 2
-f 1 2 6 9 5
-f 2 3 7 6
-f 3 4 8 10 7
-f 4 1 5 8
-f 5 9 8
-f 9 6 7 10 8
-)";
-    return ControlMesh::fromObjText(obj, "default scene");
-}
-
-double defaultDisplacement(int face, double u, double v) {
-    const double pi = 3.14159265358979323846;
-    return 0.05 * std::sin(2 * pi * 3 * u + face) * std::sin(2 * pi * 2 * v) + 0.02 * std::cos(2 * pi * 9 * (u + v));
-}
+ControlMesh defaultMesh() { return builtin::defaultMesh(); }
+double defaultDisplacement(int face, double u, double v) { return builtin::defaultDisplacement(face, u, v); }
 
 void printTileStats(std::ostream& out, const std::string& label, const TileSet& tiles, const BuildReport* r) {
     std::map<int, int> bySize;
@@ -124,7 +61,7 @@ struct MipScene {
 };
 MipScene mipScene(bool smooth) {
     const int n = 6, m = 4;
-    ControlMesh mesh = torusCage(n, m, 2.0, 1.0, "mip torus");
+    ControlMesh mesh = builtin::torusCage(n, m, 2.0, 1.0, "mip torus");
     std::vector<int> k = uniformTileSizes(mesh, 6);
     // Periodic over the torus: frequencies in cycles per face, 1..24 (the finest level has 64
     // texels per face, so content up to its Nyquist limit of 32).
@@ -198,17 +135,8 @@ void printMipTable(std::ostream& out, const std::string& csvPath) {
 
 // ---- What accurate normals cost: base surface vs displaced, approximate / accurate / auto ----
 namespace {
-// A torus cage of 8 x 6 quads (radii 2 and 0.6): curvature up to 1 / 0.6 of the minor circle,
-// with a displacement of amplitude up to 0.12 at 3 cycles per face: |D| kappa up to about 0.2.
-ControlMesh torusMesh() { return torusCage(8, 6, 2.0, 0.6, "torus 8x6"); }
-double torusDisplacement(int face, double u, double v) {
-    // Large on one side of the torus, fading to nothing on the other (the angle around the
-    // main circle is (face % 8 + u) / 8 turns): auto mode should spend the Weingarten term
-    // on that side only.
-    const double tau = 6.283185307179586, a = tau * (face % 8 + u) / 8.0;
-    const double amplitude = 0.12 * std::pow(0.5 + 0.5 * std::cos(a), 3.0);
-    return amplitude * std::sin(tau * 3 * u + 0.7 * face) * std::cos(tau * 3 * v);
-}
+using builtin::torusMesh;
+using builtin::torusDisplacement;
 
 double angleBetween(glm::dvec3 a, glm::dvec3 b) {
     // atan2 of |a x b| and a . b: accurate for small angles too.

@@ -2,14 +2,36 @@
 // Figures printed by `dispmap demo` and `dispmap bench`: tile statistics, the mip accuracy
 // table, and the Google Benchmark timings registered in figures.cpp.
 #include <ostream>
+#include <sstream>
+#include <utility>
 #include <string>
 #include <vector>
 
+#include "dispmap/file_io.h"
 #include "dispmap/tile_builder.h"
 
 namespace dispmap::figures {
+/// A CSV table kept in memory and written atomically by commit() (nothing when the path is
+/// empty), so that a failed run never leaves half a table.
+struct CsvOut {
+    std::string path;
+    std::ostringstream text;
+    CsvOut(std::string p, const char* header) : path(std::move(p)) { text << header << "\n"; }
+    explicit operator bool() const { return !path.empty(); }
+    template <typename T> CsvOut& operator<<(const T& x) {
+        text << x;
+        return *this;
+    }
+    void commit() {
+        if (path.empty()) return;
+        const std::string t = text.str();
+        detail::writeFileAtomically(path, std::vector<unsigned char>(t.begin(), t.end()), "CSV table");
+    }
+};
+
 /// The embedded default scene: a cage with extraordinary vertices of valence 3 and 5, a
-/// triangle and a pentagon, and a procedural displacement (no files needed).
+/// triangle and a pentagon, and a procedural displacement (no files needed). Forwards to
+/// dispmap/builtin.h, where the meshes and functions live.
 ControlMesh defaultMesh();
 double defaultDisplacement(int face, double u, double v);
 void printTileStats(std::ostream& out, const std::string& label, const TileSet& tiles, const BuildReport* report);

@@ -13,15 +13,19 @@
 #include <random>
 #include <sstream>
 
+#include "dispmap/base_surface.h"
 #include "dispmap/tileset.h"
 #include "dispmap/vulkan/buffer.h"
 #include "dispmap/vulkan/compute.h"
 #include "dispmap/vulkan/context.h"
 #include "kernels/parity_lod.h"
+#include "kernels/parity_patch.h"
 #include "kernels/parity_tile.h"
 #include "parity_double_spv.h"
 #include "parity_float_spv.h"
 #include "parity_packed_spv.h"
+#include "parity_patch_double_spv.h"
+#include "parity_patch_float_spv.h"
 
 namespace dispmap::parity {
 namespace {
@@ -585,6 +589,164 @@ KernelResult runPacked(vulkan::Context& ctx, const Options& opt, bool strict) {
     return res;
 }
 
+// ------------------------------------------------------------------------------------------
+// The base-surface patch kernels (kernels/patch.h, dispatch parity_patch.h, shader
+// parity_patch.comp) on the PatchParams of real Far patch tables.
+
+// A cube with two pentagons (N-gon sub-faces: NonQuadRoot patches; valence 3 and 5: end caps),
+// open at the bottom (boundary masks) with a flap hanging from one bottom edge (sharp boundary
+// corners of valence 2: corner masks), and one infinitely sharp crease (useInfSharpPatch:
+// regular patches with boundary masks). Measured: 30 end caps, 22 masked regular patches (masks
+// 1, 2, 4, 8, 6, 12), 124 unmasked ones, 100 NonQuadRoot, per end-cap type.
+constexpr const char* kPatchMesh = "v -1 -1 -1\nv 1 -1 -1\nv 1 1 -1\nv -1 1 -1\nv -1 -1 1\nv 1 -1 1\nv 1 1 1\nv -1 1 1\n"
+                                   "v 0 -1 1\nv -1 -2 -1.5\nv 1 -2 -1.5\n"
+                                   "f 5 9 6 7 8\nf 1 2 6 9 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\nf 2 1 10 11\n"
+                                   "t crease 2/1/0 6 7 10\nt interpolateboundary 1/0/0 1\n";
+
+struct PatchParamInput {
+    glm::uvec2 param;
+    int cvCount;
+};
+
+// Every patch of the mesh's tables (Gregory and B-spline end caps, isolation 3), and PatchParams
+// with every field at its extremes (decoding only).
+std::vector<PatchParamInput> patchParams(bool extremes) {
+    std::vector<PatchParamInput> out;
+    const ControlMesh mesh = ControlMesh::fromObjText(kPatchMesh, "parity patch mesh");
+    for (const bool gregory : {true, false}) {
+        BaseSurfaceOptions o;
+        o.isolationLevel = 3;
+        o.gregoryEndCaps = gregory;
+        const BaseSurface base(mesh, o);
+        const Far::PatchTable& table = base.patchTable();
+        for (int a = 0; a < table.GetNumPatchArrays(); ++a)
+            for (int i = 0; i < table.GetNumPatches(a); ++i) {
+                const Far::PatchParam p = table.GetPatchParam(a, i);
+                out.push_back({glm::uvec2(p.field0, p.field1), table.GetPatchArrayDescriptor(a).GetNumControlVertices()});
+            }
+    }
+    if (extremes)
+        for (int k = 0; k < 16; ++k) {
+            Far::PatchParam p;
+            const bool hi = k & 1;
+            p.Set(hi ? (1 << 28) - 1 : 0, static_cast<short>(hi ? 1023 : 0), static_cast<short>(k & 2 ? 1023 : 0),
+                  static_cast<unsigned short>(k & 4 ? 10 : 1), (k & 8) != 0, static_cast<unsigned short>(k & 2 ? 31 : 0),
+                  static_cast<unsigned short>(hi ? 15 : 0), (k & 4) != 0);
+            out.push_back({glm::uvec2(p.field0, p.field1), k & 1 ? 20 : 16});
+        }
+    return out;
+}
+
+struct PatchKernel {
+    int id;            // kernel number in parity_patch.h
+    const char* name;
+    int cvFilter;      // only parameters with this many control points (0: all)
+    const char* contract;
+    double bound;
+    const char* unit;
+};
+// Gregory weights divide (the rational blend of the face points, 2.5 ULP in Vulkan); with the
+// Bezier products around it a few ULP of the weight. The rest is polynomial or bit work.
+constexpr PatchKernel kPatchKernels[] = {
+    {0, "dmPatchBasis2 (B-spline)", 16, "exact", 0, "ULP of max(|w|, 2^(kL))"},
+    {0, "dmPatchBasis2 (Gregory)", 20, "div", 8, "ULP of max(|w|, 2^(kL))"},
+    {1, "dmPatchBasis1", 0, "div", 8, "ULP of max(|w|, 2^(kL))"},
+    {2, "dmQuadTreeStep", 0, "exact", 0, "ULP of 1; quadrants exact"},
+    {3, "dmPatchLocal+dmEndCapCornerWeights", 0, "exact", 0, "ULP of 1; decoding exact"},
+};
+
+template <class real>
+KernelResult runPatch(vulkan::Context& ctx, const vulkan::ComputePipeline& pipe, const PatchKernel& k,
+                      const std::vector<PatchParamInput>& params, const Options& opt, bool strict) {
+    Gen<real> g(opt.seed + 104729u * static_cast<std::uint64_t>(k.id + k.cvFilter) + (sizeof(real) == 8 ? 1u : 0u));
+    std::vector<PatchParamInput> ps;
+    for (const PatchParamInput& p : params)
+        if (k.cvFilter == 0 || p.cvCount == k.cvFilter) ps.push_back(p);
+    // Inputs: per parameter the local (s, t) on the patch's corners, edges, centre and their
+    // neighbours, then random; mapped to face (u, v) = ((s, t) + (U, V)) 2^-L in `real`.
+    const std::vector<real> local = {real(0), std::ldexp(real(1), -10), std::nextafter(real(0.5), real(0)), real(0.5),
+                                     std::nextafter(real(1), real(0)), real(1)};
+    const std::size_t edgeInputs = ps.size() * local.size() * local.size();
+    const std::size_t count = k.id == 3 ? ps.size() * 9 : std::max(opt.inputs / 8, k.id == 2 ? std::size_t(4096) : edgeInputs);
+    std::vector<real> args;
+    std::vector<ivec4> ints;
+    std::vector<real> edges = edgeParams<real>(64);
+    for (std::size_t i = 0; i < count; ++i) {
+        const PatchParamInput& p = ps[i % ps.size()];
+        real u, v;
+        if (k.id == 2) {
+            u = i < edges.size() * edges.size() ? edges[i % edges.size()] : g.uniform(0.0, 1.0);
+            v = i < edges.size() * edges.size() ? edges[i / edges.size()] : g.uniform(0.0, 1.0);
+        } else {
+            const std::size_t j = i / ps.size();
+            real s = i < edgeInputs ? local[j % local.size()] : g.uniform(0.0, 1.0);
+            real t = i < edgeInputs ? local[j / local.size() % local.size()] : g.uniform(0.0, 1.0);
+            const glm::ivec2 off = kern::dmPatchOffset(p.param);
+            const real frac = std::ldexp(real(1), -kern::dmPatchDomainLevel(p.param));
+            u = std::min((s + static_cast<real>(off.x)) * frac, real(1));
+            v = std::min((t + static_cast<real>(off.y)) * frac, real(1));
+        }
+        args.push_back(u);
+        args.push_back(v);
+        ints.emplace_back(static_cast<int>(p.param.x), static_cast<int>(p.param.y), p.cvCount, 0);
+    }
+
+    KernelResult res;
+    res.kernel = k.name;
+    res.precision = sizeof(real) == 4 ? "float" : "double";
+    res.contract = k.contract;
+    res.unit = k.unit;
+    const bool exact = std::string(k.contract) == "exact";
+    res.bound = exact ? (strict ? 0.0 : kFusedBound) : k.bound;
+    res.inputs = count;
+    constexpr std::size_t kPatchChunk = 8192; // 120 results per input: 7.5 MiB of doubles
+    const std::size_t chunk = std::min(kPatchChunk, count);
+    vulkan::Buffer inArgs(ctx, chunk * 2 * sizeof(real)), inInts(ctx, chunk * sizeof(ivec4));
+    vulkan::Buffer outArgs(ctx, chunk * 120 * sizeof(real)), outInts(ctx, chunk * sizeof(ivec4));
+    const vulkan::Buffer* bufs[] = {&inArgs, &inInts, &outArgs, &outInts};
+    double sum = 0;
+    for (std::size_t begin = 0; begin < count; begin += chunk) {
+        const std::size_t n = std::min(chunk, count - begin);
+        inArgs.upload(args.data() + begin * 2, n * 2 * sizeof(real));
+        inInts.upload(ints.data() + begin, n * sizeof(ivec4));
+        const auto groups = static_cast<std::uint32_t>((n + 63) / 64);
+        Push push{k.id, static_cast<std::uint32_t>(n), groups * 64u};
+        res.gpuSeconds += ctx.dispatch(pipe, bufs, glm::uvec3(groups, 1, 1), &push, sizeof(push));
+        const real* gpu = outArgs.as<const real>().data();
+        const ivec4* gpuInts = outInts.as<const ivec4>().data();
+        for (std::size_t i = 0; i < n; ++i) {
+            const ivec4 in = ints[begin + i];
+            const glm::uvec2 param(static_cast<std::uint32_t>(in.x), static_cast<std::uint32_t>(in.y));
+            const glm::vec<2, real> uv(args[2 * (begin + i)], args[2 * (begin + i) + 1]);
+            real cpu[120];
+            ivec4 o;
+            kern::dmParityPatch(k.id, param, in.z, uv, cpu, o);
+            bool same = std::memcmp(&o, &gpuInts[i], sizeof(o)) == 0;
+            double worst = same ? 0 : std::numeric_limits<double>::infinity();
+            const int level = kern::dmPatchDomainLevel(param);
+            for (int j = 0; j < 120; ++j) {
+                const real x = cpu[j], y = gpu[i * 120 + static_cast<std::size_t>(j)];
+                // Weights of derivative order m (w; wu, wv; wuu, wuv, wvv) carry 2^(mL).
+                const int order = k.id <= 1 ? (j < 20 ? 0 : j < 60 ? 1 : 2) : 0;
+                const real scale = std::ldexp(real(1), order * level);
+                same = same && std::memcmp(&x, &y, sizeof(real)) == 0;
+                worst = std::max(worst, ulpError(x, y, ulpOf(std::max(std::abs(x), scale))));
+            }
+            res.bitExact += same ? 1 : 0;
+            sum += std::isfinite(worst) ? worst : 0;
+            if (worst > res.maxUlp || (res.worstInput.empty() && worst > 0)) {
+                res.maxUlp = worst;
+                std::ostringstream s;
+                s << std::setprecision(std::numeric_limits<real>::max_digits10) << "param=(0x" << std::hex << param.x << ", 0x"
+                  << param.y << std::dec << ") cvCount=" << in.z << " uv=(" << uv.x << ", " << uv.y << ")";
+                res.worstInput = s.str();
+            }
+        }
+    }
+    res.meanUlp = count ? sum / static_cast<double>(count) : 0;
+    return res;
+}
+
 } // namespace
 
 bool strictFor(const vulkan::Context& context, const Options& options) {
@@ -609,6 +771,24 @@ std::vector<KernelResult> run(vulkan::Context& ctx, const Options& opt) {
     }
     if (opt.filter.empty() || std::string("PackedTiles::sampleD1").find(opt.filter) != std::string::npos)
         results.push_back(runPacked(ctx, opt, strict));
+    // The base-surface patch kernels.
+    std::vector<const PatchKernel*> patchKernels;
+    for (const PatchKernel& k : kPatchKernels)
+        if (opt.filter.empty() || std::string(k.name).find(opt.filter) != std::string::npos) patchKernels.push_back(&k);
+    if (!patchKernels.empty()) {
+        const std::vector<PatchParamInput> params = patchParams(false), decode = patchParams(true);
+        vulkan::ComputePipeline pf(ctx, std::span<const std::uint32_t>(parity_patch_float_spv, sizeof(parity_patch_float_spv) / 4),
+                                   4, sizeof(Push));
+        for (const PatchKernel* k : patchKernels)
+            results.push_back(runPatch<float>(ctx, pf, *k, k->id == 3 ? decode : params, opt, strict));
+        if (ctx.float64Enabled()) {
+            vulkan::ComputePipeline pd(
+                ctx, std::span<const std::uint32_t>(parity_patch_double_spv, sizeof(parity_patch_double_spv) / 4), 4,
+                sizeof(Push));
+            for (const PatchKernel* k : patchKernels)
+                results.push_back(runPatch<double>(ctx, pd, *k, k->id == 3 ? decode : params, opt, strict));
+        }
+    }
     return results;
 }
 

@@ -50,8 +50,10 @@ struct KernelResult {
     bool ok() const { return maxUlp <= bound; }
 };
 
-/// Runs every kernel (float, and double where the device has shaderFloat64) and the packed
-/// displacement lookup (PackedTiles::sampleD1 against shaders/parity_packed.comp).
+/// Runs every kernel (float, and double where the device has shaderFloat64), the packed
+/// displacement lookup (PackedTiles::sampleD1 against shaders/parity_packed.comp) and the
+/// base-surface patch kernels on the PatchParams of real Far patch tables
+/// (shaders/parity_patch.comp).
 std::vector<KernelResult> run(vulkan::Context& context, const Options& options);
 
 /// The table: kernel, precision, inputs, bit-exact share, max / mean error, bound, GPU time per

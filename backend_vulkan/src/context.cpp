@@ -304,6 +304,10 @@ void Context::create(const DeviceOptions& options) {
     enabled_.tessellationShader = supported.tessellationShader;
     enabled_.fillModeNonSolid = supported.fillModeNonSolid;
     enabled_.pipelineStatisticsQuery = supported.pipelineStatisticsQuery;
+    // The renderer's vertex capture (tests) writes from the tessellation evaluation shader.
+    enabled_.vertexPipelineStoresAndAtomics = supported.vertexPipelineStoresAndAtomics;
+    // The renderer's wireframe pass writes colour but leaves the normal target alone.
+    enabled_.independentBlend = supported.independentBlend;
 
     // Device, queue, and the objects of one-shot submissions.
     const float priority = 1.0f;

@@ -1,6 +1,7 @@
 #pragma once
 // Height images: greyscale PNG files read and written with libpng, and bilinear sampling
-// at OBJ texture coordinates. Needs libpng (and zlib).
+// at OBJ texture coordinates; also 8-bit RGBA PNG files (rendered frames, normal maps:
+// writeRgbaPng, readRgbaPng). Needs libpng (and zlib).
 //
 // Reading accepts every PNG colour type whose pixels are grey:
 //  * grey 1/2/4/8/16 bits: read as is (depths below 8 expanded to 8 bits);
@@ -159,6 +160,40 @@ inline bool pngWriteGrey16(png_structp png, png_infop info, png_uint_32 width, p
     return true;
 }
 
+// Reads the PNG header and sets up the conversion of any colour type to 8-bit RGBA (palette
+// and grey expanded to RGB, tRNS to alpha, missing alpha filled with 255, 16-bit samples
+// scaled to 8). False (message in the PngIo) if libpng failed.
+inline bool pngReadHeaderRgba8(png_structp png, png_infop info, PngLayout* layout) {
+    if (setjmp(png_jmpbuf(png))) return false;
+    png_read_info(png, info);
+    const int colorType = png_get_color_type(png, info);
+    if (colorType == PNG_COLOR_TYPE_PALETTE) png_set_palette_to_rgb(png);
+    if (colorType == PNG_COLOR_TYPE_GRAY && png_get_bit_depth(png, info) < 8) png_set_expand_gray_1_2_4_to_8(png);
+    if (png_get_valid(png, info, PNG_INFO_tRNS)) png_set_tRNS_to_alpha(png);
+    if (png_get_bit_depth(png, info) == 16) png_set_scale_16(png);
+    if (colorType == PNG_COLOR_TYPE_GRAY || colorType == PNG_COLOR_TYPE_GRAY_ALPHA) png_set_gray_to_rgb(png);
+    png_set_add_alpha(png, 0xFF, PNG_FILLER_AFTER); // no effect where alpha exists
+    png_set_interlace_handling(png);
+    png_read_update_info(png, info);
+    layout->width = png_get_image_width(png, info);
+    layout->height = png_get_image_height(png, info);
+    layout->bitDepth = png_get_bit_depth(png, info);
+    layout->channels = png_get_channels(png, info);
+    layout->rowBytes = png_get_rowbytes(png, info);
+    return true;
+}
+
+// Encodes 8-bit RGBA rows. False on error.
+inline bool pngWriteRgba8(png_structp png, png_infop info, png_uint_32 width, png_uint_32 height, png_bytepp rows) {
+    if (setjmp(png_jmpbuf(png))) return false;
+    png_set_IHDR(png, info, width, height, 8, PNG_COLOR_TYPE_RGB_ALPHA, PNG_INTERLACE_NONE,
+                 PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    png_write_info(png, info);
+    png_write_image(png, rows);
+    png_write_end(png, nullptr);
+    return true;
+}
+
 // Big-endian u32 at bytes[at..at+3].
 inline std::uint32_t bigEndian32(const std::vector<unsigned char>& bytes, std::size_t at) {
     return (std::uint32_t{bytes[at]} << 24) | (std::uint32_t{bytes[at + 1]} << 16) |
@@ -273,6 +308,80 @@ inline void writeHeightPng16(const std::string& path, const HeightImage& img) {
                                 static_cast<png_uint_32>(h), rows.data()))
         throw FileError("cannot write height image '" + path + "': " + io.message);
     detail::writeFileAtomically(path, encoded, "height image");
+}
+
+/// An 8-bit RGBA image (e.g. a rendered frame or a normal map).
+struct RgbaImage {
+    int width = 0, height = 0;
+    /// Row by row, 4 bytes (R, G, B, A) per pixel; row 0 is the top row of the file.
+    std::vector<std::uint8_t> rgba;
+};
+
+/// Writes width x height 8-bit RGBA pixels (row 0 at the top, 4 bytes per pixel) as a PNG,
+/// atomically: a failed write leaves an existing file untouched and no temporary behind.
+/// Throws ArgumentError (nothing written) unless 1 <= width, height <= kMaxHeightImageSize
+/// and rgba is not null; FileError if the file cannot be written.
+inline void writeRgbaPng(const std::string& path, int width, int height, const std::uint8_t* rgba) {
+    if (width < 1 || height < 1 || width > kMaxHeightImageSize || height > kMaxHeightImageSize)
+        throw ArgumentError("writeRgbaPng('" + path + "'): size " + std::to_string(width) + " x " +
+                            std::to_string(height) + " is outside [1, " + std::to_string(kMaxHeightImageSize) +
+                            "] per side");
+    if (!rgba) throw ArgumentError("writeRgbaPng('" + path + "'): no pixels given");
+    const std::size_t w = static_cast<std::size_t>(width), h = static_cast<std::size_t>(height);
+    // libpng takes non-const row pointers but only reads them when writing.
+    std::vector<std::uint8_t> pixels(rgba, rgba + 4 * w * h);
+    std::vector<png_bytep> rows(h);
+    for (std::size_t y = 0; y < h; ++y) rows[y] = pixels.data() + 4 * w * y;
+
+    std::vector<unsigned char> encoded;
+    encoded.reserve(pixels.size() / 2 + 1024);
+    detail::PngIo io;
+    io.out = &encoded;
+    detail::PngHandle handle(true, &io);
+    if (!handle.png || !handle.info) throw FileError("cannot write RGBA image '" + path + "': cannot initialise libpng");
+    png_set_write_fn(handle.png, &io, detail::pngWrite, detail::pngFlush);
+    if (!detail::pngWriteRgba8(handle.png, handle.info, static_cast<png_uint_32>(w), static_cast<png_uint_32>(h),
+                               rows.data()))
+        throw FileError("cannot write RGBA image '" + path + "': " + io.message);
+    detail::writeFileAtomically(path, encoded, "RGBA image");
+}
+
+/// Reads a PNG as 8-bit RGBA: RGB, RGBA, grey (with or without alpha) and palette images of
+/// any bit depth (grey becomes R = G = B, missing alpha 255, 16-bit samples are scaled to 8).
+/// Throws FileError naming path and the reason: cannot open, not a PNG, truncated, zero
+/// size, larger than kMaxHeightImageSize per side, or any error libpng reports.
+inline RgbaImage readRgbaPng(const std::string& path) {
+    const std::vector<unsigned char> bytes = detail::readFileBytes(path, "RGBA image");
+    const auto fail = [&](const std::string& why) { return FileError("RGBA image '" + path + "': " + why); };
+    const std::size_t sigBytes = std::min<std::size_t>(bytes.size(), 8);
+    if (sigBytes == 0 || png_sig_cmp(bytes.data(), 0, sigBytes) != 0) throw fail("not a PNG file");
+    if (bytes.size() >= 24 && std::memcmp(bytes.data() + 12, "IHDR", 4) == 0) {
+        const std::uint32_t w = detail::bigEndian32(bytes, 16), h = detail::bigEndian32(bytes, 20);
+        if (w == 0 || h == 0) throw fail("zero size (" + std::to_string(w) + " x " + std::to_string(h) + ")");
+        if (w > kMaxHeightImageSize || h > kMaxHeightImageSize)
+            throw fail("too large (" + std::to_string(w) + " x " + std::to_string(h) + "; at most " +
+                       std::to_string(kMaxHeightImageSize) + " per side)");
+    }
+    detail::PngIo io;
+    io.in = bytes.data();
+    io.inSize = bytes.size();
+    detail::PngHandle handle(false, &io);
+    if (!handle.png || !handle.info) throw fail("cannot initialise libpng");
+    png_set_read_fn(handle.png, &io, detail::pngRead);
+    png_set_user_limits(handle.png, kMaxHeightImageSize, kMaxHeightImageSize);
+    detail::PngLayout layout;
+    if (!detail::pngReadHeaderRgba8(handle.png, handle.info, &layout)) throw fail(io.message);
+    if (layout.channels != 4 || layout.bitDepth != 8 || layout.rowBytes != std::size_t{layout.width} * 4)
+        throw fail("unsupported pixel layout after conversion (" + std::to_string(layout.channels) + " channels, " +
+                   std::to_string(layout.bitDepth) + " bits)");
+    RgbaImage img;
+    img.width = static_cast<int>(layout.width);
+    img.height = static_cast<int>(layout.height);
+    img.rgba.resize(layout.rowBytes * layout.height);
+    std::vector<png_bytep> rows(layout.height);
+    for (std::size_t y = 0; y < layout.height; ++y) rows[y] = img.rgba.data() + y * layout.rowBytes;
+    if (!detail::pngReadRows(handle.png, rows.data())) throw fail(io.message);
+    return img;
 }
 
 /// Bilinear sample of img at OBJ texture coordinates (s, t): s runs left to right, t bottom

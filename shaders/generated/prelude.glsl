@@ -8,4 +8,5 @@
 #define DM_TFUNC
 #define DM_OUT(T) out T
 #define DM_INOUT(T) inout T
+#define DM_OUT_ARRAY(T) out T
 #endif // DISPMAP_GLSL_PRELUDE

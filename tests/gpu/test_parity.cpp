@@ -11,7 +11,7 @@ TEST_CASE("every kernel agrees between C++ and the compute shader within its con
     const bool strict = dispmap::parity::strictFor(ctx, opt);
     INFO("device " << ctx.deviceName() << (strict ? " (strict: no FMA contraction)" : ""));
     const auto results = dispmap::parity::run(ctx, opt);
-    std::size_t kernels = 0, doubles = 0;
+    std::size_t kernels = 0, doubles = 0, patchKernels = 0;
     for (const auto& r : results) {
         INFO(r.kernel << " (" << r.precision << "): max " << r.maxUlp << " " << r.unit << ", bound " << r.bound
                       << ", worst input " << r.worstInput);
@@ -22,7 +22,12 @@ TEST_CASE("every kernel agrees between C++ and the compute shader within its con
         if (strict && r.contract == "exact") CHECK(r.bitExact == r.inputs);
         ++kernels;
         doubles += r.precision == "double" ? 1u : 0u;
+        // The base-surface patch kernels (kernels/patch.h) on real Far PatchParams.
+        for (const char* name : {"dmPatchBasis2 (B-spline)", "dmPatchBasis2 (Gregory)", "dmPatchBasis1", "dmQuadTreeStep",
+                                 "dmPatchLocal+dmEndCapCornerWeights"})
+            patchKernels += r.kernel == name ? 1u : 0u;
     }
+    CHECK(patchKernels == (ctx.float64Enabled() ? 10u : 5u));
     CHECK(kernels >= 30);
     if (ctx.float64Enabled()) CHECK(doubles >= 19);
     dmgpu::checkNoValidationMessages();

@@ -13,6 +13,7 @@
 //   DM_TFUNC          template <typename real> inline       (empty)
 //   DM_OUT(T)         T&                                    out T
 //   DM_INOUT(T)       T&                                    inout T
+//   DM_OUT_ARRAY(T)   T  (the array parameter decays to T*)  out T
 //   real              the template parameter (float/double) #define real float (double variant: double,
 //                                                          behind DM_ENABLE_DOUBLE)
 //   rvec2..4, rmat3   glm::vec<N, real>, glm::mat<3,3,real> vec2..4, mat3 (double: dvec2.., dmat3)
@@ -37,6 +38,10 @@
 #define DM_TFUNC template <typename real> inline
 #define DM_OUT(T) T&
 #define DM_INOUT(T) T&
+// An array the kernel fills: `DM_OUT_ARRAY(real) w[20]` (after OSD_OUT_ARRAY of OpenSubdiv's
+// osd/patchBasis.h). GLSL copies it out on return, C++ writes through the decayed pointer:
+// a kernel writes every element it promises and never reads one before writing it.
+#define DM_OUT_ARRAY(T) T
 
 namespace dispmap::kern {
 // GLSL names resolve to GLM inside the kernel namespace, so <cmath> never wins overload
@@ -55,6 +60,7 @@ using glm::max;
 using glm::min;
 using glm::mix;
 using glm::sqrt;
+using glm::uvec2;
 using glm::uvec4;
 using uint = std::uint32_t;
 } // namespace dispmap::kern

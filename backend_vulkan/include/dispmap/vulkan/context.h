@@ -44,6 +44,7 @@ void check(VkResult result, const char* call);
     X(vkGetPhysicalDeviceFeatures)                                                                           \
     X(vkGetPhysicalDeviceQueueFamilyProperties)                                                              \
     X(vkGetPhysicalDeviceMemoryProperties)                                                                   \
+    X(vkGetPhysicalDeviceFormatProperties)                                                                   \
     X(vkCreateDevice)                                                                                        \
     X(vkGetDeviceProcAddr)
 // Loaded only when validation is on (VK_EXT_debug_utils).
@@ -94,7 +95,29 @@ void check(VkResult result, const char* call);
     X(vkCmdBindDescriptorSets)                                                                               \
     X(vkCmdPushConstants)                                                                                    \
     X(vkCmdDispatch)                                                                                         \
-    X(vkCmdPipelineBarrier)
+    X(vkCmdPipelineBarrier)                                                                                  \
+    X(vkCreateImage)                                                                                  \
+    X(vkDestroyImage)                                                                                 \
+    X(vkGetImageMemoryRequirements)                                                                   \
+    X(vkBindImageMemory)                                                                              \
+    X(vkCreateImageView)                                                                              \
+    X(vkDestroyImageView)                                                                             \
+    X(vkCreateSampler)                                                                                \
+    X(vkDestroySampler)                                                                               \
+    X(vkCreateRenderPass)                                                                             \
+    X(vkDestroyRenderPass)                                                                            \
+    X(vkCreateFramebuffer)                                                                            \
+    X(vkDestroyFramebuffer)                                                                           \
+    X(vkCreateGraphicsPipelines)                                                                      \
+    X(vkCmdBeginRenderPass)                                                                           \
+    X(vkCmdEndRenderPass)                                                                             \
+    X(vkCmdDraw)                                                                                      \
+    X(vkCmdCopyImageToBuffer)                                                                         \
+    X(vkCmdCopyBufferToImage)                                                                         \
+    X(vkCmdBeginQuery)                                                                                \
+    X(vkCmdEndQuery)                                                                                  \
+    X(vkCmdSetViewport)                                                                               \
+    X(vkCmdSetScissor)
 
 /// The dispatch table: one pointer per function of the lists above, named like the function.
 struct Functions {

@@ -1,0 +1,113 @@
+// The tessellation renderer's shared declarations: specialisation constants (the effects a
+// scene asks for), the descriptor bindings and the small gathers between kernel calls. Every
+// formula lives in the generated kernels; what is here only fetches data and calls them.
+// Layouts mirror backend_vulkan/src/render_data.h (static_asserts there).
+#include "prelude.glsl"
+#include "sum.glsl"
+#include "bspline.glsl"
+#include "tile.glsl"
+#include "lod.glsl"
+#include "normal.glsl"
+#include "patch.glsl"
+#include "baseline.glsl"
+
+// Effects (specialisation constants; code of an effect that is off is removed when the
+// pipeline is created). DM_LEAN builds the shaders without the optional effects at all, for
+// the benchmark that shows "off" costs what "not built" costs.
+layout(constant_id = 0) const int TECHNIQUE = 1;  // 0 base surface, 1 displaced (ours), 2 baseline
+layout(constant_id = 1) const int NORMALS = 0;    // 0 approximate, 1 accurate, 2 auto (per face)
+layout(constant_id = 2) const int LOD = 1;        // 0 off, 1 log2 TF (§6.2), 2 seed 004
+layout(constant_id = 3) const int TESS_METHOD = 0; // 0 uniform, 1 distance, 2 screen edge, 3 screen area
+layout(constant_id = 4) const bool CAPTURE = false; // TES writes its vertices (tests)
+layout(constant_id = 5) const bool WIRE = false;    // wireframe overlay pass
+#ifdef DM_LEAN
+#define HAS_ACCURATE false
+#define HAS_LOD false
+#define HAS_CAPTURE false
+#else
+#define HAS_ACCURATE (NORMALS != 0)
+#define HAS_LOD (LOD != 0)
+#define HAS_CAPTURE CAPTURE
+#endif
+
+#define DM_LEAF 0x80000000u
+
+struct Light {
+    vec4 direction; // towards the light
+    vec4 color;
+};
+layout(std430, set = 0, binding = 0) readonly buffer Params {
+    mat4 viewProj;
+    vec4 eye;       // xyz
+    vec4 viewport;  // width, height, 0, 0 (pixels)
+    vec4 tess;      // factor value or constant c, max factor, 0, 0
+    vec4 albedo;    // rgb, ambient
+    vec4 wireColor;
+    vec4 atlas;     // baseline atlas width, height, texels per face edge, 0
+    ivec4 counts;   // light count, capture capacity, packed tile texture width, 0
+    Light lights[4];
+} P;
+layout(std430, set = 0, binding = 1) readonly buffer Points { vec4 points[]; };
+layout(std430, set = 0, binding = 2) readonly buffer PatchIndices { uint patchIndices[]; };
+layout(std430, set = 0, binding = 3) readonly buffer Patches { uvec4 patches[]; };
+layout(std430, set = 0, binding = 4) readonly buffer Nodes { uvec4 nodes[]; };
+layout(std430, set = 0, binding = 5) readonly buffer FaceRoots { uint faceRoots[]; };
+layout(std430, set = 0, binding = 6) readonly buffer CornerNormals { vec4 cornerNormals[]; };
+layout(std430, set = 0, binding = 7) readonly buffer Texels { float texels[]; };
+layout(std430, set = 0, binding = 8) readonly buffer Records { uvec4 records[]; };
+struct Face {
+    uvec4 corners; // TileTopology vertex ids of the corners (0 (0,0), 1 (1,0), 2 (1,1), 3 (0,1))
+    ivec4 info;    // x: 1 for a sub-face of an N-gon, y: auto mode's accurate flag, z: T-junction edge bits, w: 0
+    uvec4 chart;   // baseline atlas chart origin (x, y), 0, 0
+};
+layout(std430, set = 0, binding = 9) readonly buffer Faces { Face faces[]; };
+struct BaseVertex {
+    vec4 position; // limit position, w: the mip floor (base resolution: 1, or 2 at non-quad faces)
+    ivec4 ring;    // one-ring offset and count in ringIndices, kMin (seed 004), 1 if the ring is closed
+};
+layout(std430, set = 0, binding = 10) readonly buffer BaseVertices { BaseVertex baseVertices[]; };
+layout(std430, set = 0, binding = 11) readonly buffer RingIndices { uint ringIndices[]; };
+layout(std430, set = 0, binding = 12) readonly buffer TileVertices { uvec2 tileVertices[]; }; // spread offset, count
+layout(std430, set = 0, binding = 13) readonly buffer SpreadIndices { uint spreadIndices[]; };
+layout(std430, set = 0, binding = 14) readonly buffer DrawFaces { uint drawFaces[]; };
+struct Captured {
+    vec4 position; // xyz, w: rho
+    vec4 faceUV;   // face (as float), u, v, 0
+};
+layout(std430, set = 0, binding = 15) buffer Capture {
+    uint captureCount;
+    uint capturePad0;
+    uint capturePad1;
+    uint capturePad2;
+    Captured captured[];
+};
+layout(set = 0, binding = 16) uniform sampler2D baselineHeight;
+layout(set = 0, binding = 17) uniform sampler2D baselineNormal;
+
+// (D, D_u, D_v) at face (u, v) read at resolution rho: PackedTiles::sampleD1, gather for gather.
+vec3 tileLevelD1(uvec4 r, int m, vec2 uv) {
+    ivec2 texel;
+    vec2 t = dmPackedLocate(r, m, uv, texel);
+    mat3 c;
+    for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) {
+            c[i][j] = texels[(texel.y + j) * P.counts.z + texel.x + i];
+        }
+    }
+    return dmTileD1(c, t, dmRecordTileSize(r) >> m);
+}
+
+vec3 sampleD1(int face, vec2 uv, float rho) {
+    uvec4 r = records[face];
+    int k = dmTileLog2(dmRecordTileSize(r));
+    float maxRes = dmMaxResolution(k, dmUnpackSizeDifferences(r.w), uv);
+    int mFine;
+    int mCoarse;
+    float w = dmSelectMips(rho, maxRes, k, mFine, mCoarse);
+    return dmBlendMips(tileLevelD1(r, mCoarse, uv), tileLevelD1(r, mFine, uv), w);
+}
+
+// The baseline atlas coordinate of face (u, v) (include/dispmap/baseline.h).
+vec2 baselineUV(int face, vec2 uv) {
+    return dmBaselineAtlasUV(vec2(faces[face].chart.xy), uv, P.atlas.z, P.atlas.xy);
+}

@@ -1,0 +1,342 @@
+// The tessellation renderer against the CPU reference: evaluated vertices against
+// DisplacedSurface, rendered depth against the CPU tessellator's mesh, no cracks, smooth
+// change under a factor sweep with LOD on, lean shaders equal to specialised ones, bad input.
+#include <algorithm>
+#include <cstdlib>
+#include <string>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include <catch2/catch.hpp>
+
+#include "dispmap/height_image.h"
+
+#include "dispmap/scene_surface.h"
+#include "dispmap/tessellator.h"
+#include "dispmap/vulkan/renderer.h"
+#include "gpu_support.h"
+
+using namespace dispmap;
+using dispmap::vulkan::RenderedImage;
+using dispmap::vulkan::RendererOptions;
+using dispmap::vulkan::SceneRenderer;
+
+namespace {
+
+Scene smallScene(int width = 160, int height = 120) {
+    Scene s = defaultScene();
+    s.width = width;
+    s.height = height;
+    return s;
+}
+
+// Mixed tile sizes: the default box keeps one size (its quads all touch a T-junction, where
+// sizes must match), so the mixed case is OpenSubdiv's cube (valence-3 corners), k 5, 4, 3.
+Scene mixedOrDefault(bool mixed, int width, int height) {
+    Scene s = smallScene(width, height);
+    if (mixed) {
+        s.mesh = std::string(DISPMAP_TEST_DATA) + "/catmark_cube.obj";
+        s.displacement.mixedSizes = true;
+        s.displacement.scale = 0.03;
+        s.camera.eye *= 0.45;
+    }
+    return s;
+}
+
+double meshSize(const BaseSurface& base) {
+    glm::dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+    for (int v = 0; v < base.refiner().GetLevel(0).GetNumVertices(); ++v) {
+        lo = glm::min(lo, base.points()[static_cast<std::size_t>(v)]);
+        hi = glm::max(hi, base.points()[static_cast<std::size_t>(v)]);
+    }
+    return glm::length(hi - lo);
+}
+
+// Background pixels not connected to the image border through background: holes inside the
+// silhouette of a closed surface of genus 0, i.e. cracks.
+int enclosedBackground(const RenderedImage& im) {
+    const int w = im.width, h = im.height;
+    std::vector<char> seen(static_cast<std::size_t>(w * h), 0);
+    std::vector<int> stack;
+    auto bg = [&](int i) { return im.normals[static_cast<std::size_t>(i)].w < 0.5f; };
+    for (int x = 0; x < w; ++x) {
+        stack.push_back(x);
+        stack.push_back((h - 1) * w + x);
+    }
+    for (int y = 0; y < h; ++y) {
+        stack.push_back(y * w);
+        stack.push_back(y * w + w - 1);
+    }
+    while (!stack.empty()) {
+        const int i = stack.back();
+        stack.pop_back();
+        if (seen[static_cast<std::size_t>(i)] || !bg(i)) continue;
+        seen[static_cast<std::size_t>(i)] = 1;
+        const int x = i % w, y = i / w;
+        if (x > 0) stack.push_back(i - 1);
+        if (x + 1 < w) stack.push_back(i + 1);
+        if (y > 0) stack.push_back(i - w);
+        if (y + 1 < h) stack.push_back(i + w);
+    }
+    int enclosed = 0;
+    for (int i = 0; i < w * h; ++i) enclosed += bg(i) && !seen[static_cast<std::size_t>(i)] ? 1 : 0;
+    return enclosed;
+}
+
+// DISPMAP_RENDER_DUMP=dir writes the test images there (for looking at a failure).
+void dump(const RenderedImage& im, const std::string& name) {
+    if (const char* dir = std::getenv("DISPMAP_RENDER_DUMP")) writeRgbaPng(std::string(dir) + "/" + name + ".png", im.width, im.height, im.rgba.data());
+}
+
+int covered(const RenderedImage& im) {
+    int n = 0;
+    for (const glm::vec4& v : im.normals) n += v.w > 0.5f ? 1 : 0;
+    return n;
+}
+
+// Ray from the camera through a pixel centre, against every triangle (Möller-Trumbore).
+double rayDepth(const TriangleMesh& m, const glm::dvec3& o, const glm::dvec3& d) {
+    double best = std::numeric_limits<double>::infinity();
+    for (const glm::ivec3& tri : m.triangles) {
+        const glm::dvec3 a = m.positions[static_cast<std::size_t>(tri.x)], b = m.positions[static_cast<std::size_t>(tri.y)],
+                         c = m.positions[static_cast<std::size_t>(tri.z)];
+        const glm::dvec3 e1 = b - a, e2 = c - a, p = glm::cross(d, e2);
+        const double det = glm::dot(e1, p);
+        if (std::abs(det) < 1e-18) continue;
+        const glm::dvec3 s = o - a;
+        const double u = glm::dot(s, p) / det;
+        if (u < 0 || u > 1) continue;
+        const glm::dvec3 q = glm::cross(s, e1);
+        const double v = glm::dot(d, q) / det;
+        if (v < 0 || u + v > 1) continue;
+        const double tt = glm::dot(e2, q) / det;
+        if (tt > 0 && tt < best) best = tt;
+    }
+    return best;
+}
+
+} // namespace
+
+TEST_CASE("renderer: evaluated vertices equal the CPU displaced surface at the same (face, u, v)", "[render]") {
+    // Mixed tile sizes and extraordinary vertices (the default box), LOD from the factor.
+    for (const bool mixed : {false, true}) {
+        Scene scene = mixedOrDefault(mixed, 160, 120);
+        scene.effects.tessValue = 6.5;
+        SceneSurface s(scene);
+        RendererOptions o;
+        o.captureCapacity = 200000;
+        SceneRenderer r(dmgpu::context(), scene, s.surface, nullptr, o);
+        const RenderedImage im = r.render(1, 0);
+        REQUIRE(im.capturedTotal > 0);
+        REQUIRE(im.capturedTotal <= o.captureCapacity);
+        TessellateOptions to;
+        to.mips = MipSelection::TessFactor;
+        Tessellator cpu(s.surface, uniformTessFactors(s.base, scene.effects.tessValue), to);
+        const double size = meshSize(s.base);
+        double worstP = 0, worstRho = 0;
+        for (const vulkan::CapturedVertex& v : im.captured) {
+            const double u = v.uv.x, w = v.uv.y;
+            const double rho = cpu.resolution(v.face, u, w);
+            const SurfaceSample<double> ref = s.surface.evaluate<double>(v.face, u, w, NormalMode::Approximate, rho);
+            worstP = std::max(worstP, glm::length(glm::dvec3(v.position) - ref.position) / size);
+            worstRho = std::max(worstRho, std::abs(double(v.rho) - rho));
+        }
+        INFO("mixed sizes " << mixed << ": " << im.captured.size() << " vertices, worst position error " << worstP
+                            << " of the mesh size, worst rho error " << worstRho);
+        // Float evaluation (points, weights and texels rounded to float) against double:
+        // a few float ulps of the size per term, summed over 16-20 control points and 18
+        // texels; 2e-6 is ~17 ulp of 1.
+        CHECK(worstP < 2e-6);
+        // rho = log2 of a bilinear mix of factors in float: ~1e-6 absolute.
+        CHECK(worstRho < 1e-5);
+        dmgpu::checkNoValidationMessages();
+    }
+}
+
+TEST_CASE("renderer: rendered depth matches the CPU tessellator's mesh", "[render]") {
+    // LOD on: D band-limited to the sampling rate, so that two samplings of it agree.
+    Scene scene = smallScene(256, 192);
+    scene.effects.lod = MipSelection::TessFactor;
+    scene.effects.tessValue = 64;
+    SceneSurface s(scene);
+    SceneRenderer r(dmgpu::context(), scene, s.surface);
+    const RenderedImage im = r.render(1, 0);
+    dump(im, "depth");
+    TessellateOptions to;
+    to.mips = MipSelection::TessFactor;
+    const TriangleMesh mesh = tessellate(s.surface, uniformTessFactors(s.base, scene.effects.tessValue), to);
+    const glm::dmat4 inv = glm::inverse(r.viewProjection());
+    const double size = meshSize(s.base);
+    auto interior = [&](int x, int y) { // the pixel and its 8 neighbours are covered: no silhouette
+        for (int j = -1; j <= 1; ++j)
+            for (int i = -1; i <= 1; ++i)
+                if (im.normals[static_cast<std::size_t>((y + j) * im.width + x + i)].w < 0.5f) return false;
+        return true;
+    };
+    std::vector<double> diffs;
+    for (int y = 1; y + 1 < im.height; y += 3)
+        for (int x = 1; x + 1 < im.width; x += 3) {
+            if (!interior(x, y)) continue;
+            const std::size_t i = static_cast<std::size_t>(y * im.width + x);
+            const double ndcX = (x + 0.5) / im.width * 2 - 1, ndcY = (y + 0.5) / im.height * 2 - 1;
+            const glm::dvec4 p = inv * glm::dvec4(ndcX, ndcY, double(im.depth[i]), 1.0);
+            const glm::dvec4 n = inv * glm::dvec4(ndcX, ndcY, 0.0, 1.0);
+            const glm::dvec3 o = scene.camera.eye, d = glm::normalize(glm::dvec3(n) / n.w - o);
+            const double t = rayDepth(mesh, o, d);
+            REQUIRE(std::isfinite(t));
+            diffs.push_back(std::abs(glm::length(glm::dvec3(p) / p.w - o) - t) / size);
+        }
+    std::sort(diffs.begin(), diffs.end());
+    REQUIRE(diffs.size() > 200);
+    const double p95 = diffs[diffs.size() * 95 / 100];
+    INFO(diffs.size() << " interior pixels, depth difference to the CPU mesh: median " << diffs[diffs.size() / 2] << ", 95% "
+                      << p95 << ", max " << diffs.back() << " of the size");
+    // Two triangulations of the same surface (the hardware pattern; the CPU zipper and its
+    // T-junction rule) agree where the surface is smooth at this scale: the median is the
+    // depth buffer's float precision and the chord errors (~1e-5). Both are within their
+    // chord error of f, at most h^2/8 |f''| with h = 1/64 of a face; on the steep flanks of
+    // the waves, seen at a grazing angle, that error grows by 1/cos, and where the displaced
+    // box folds over itself a ray may meet another fold (the worst pixel is not bounded).
+    CHECK(diffs[diffs.size() / 2] < 1e-4);
+    CHECK(p95 < 4e-3);
+    dmgpu::checkNoValidationMessages();
+}
+
+TEST_CASE("renderer: no cracks, with mixed tile sizes, extraordinary vertices and varying factors", "[render]") {
+    struct View {
+        glm::dvec3 eye;
+    };
+    const View views[] = {{{2.6, 2.0, 3.4}}, {{-3.1, 1.2, -2.4}}, {{0.3, 4.2, 0.4}}, {{3.9, 0.05, 0.2}}};
+    for (const bool mixed : {false, true})
+        for (const TessMethod method : {TessMethod::Uniform, TessMethod::Distance, TessMethod::ScreenEdge})
+            for (const Spacing spacing : {Spacing::FractionalEven, Spacing::Integer}) {
+                Scene scene = mixedOrDefault(mixed, 200, 150);
+                scene.effects.tessMethod = method;
+                scene.effects.spacing = spacing;
+                scene.effects.tessValue = method == TessMethod::Uniform ? 5.3 : method == TessMethod::Distance ? 17.0 : 0.08;
+                SceneSurface s(scene);
+                SceneRenderer r(dmgpu::context(), scene, s.surface);
+                for (const View& v : views) {
+                    SceneCamera cam = scene.camera;
+                    cam.eye = v.eye * (mixed ? 0.45 : 1.0);
+                    r.setCamera(cam);
+                    const RenderedImage im = r.render(1, 0);
+                    INFO("mixed " << mixed << ", method " << toString(method) << ", spacing " << toString(spacing)
+                                  << ", eye " << v.eye.x << "," << v.eye.y << "," << v.eye.z);
+                    REQUIRE(covered(im) > im.width * im.height / 20);
+                    CHECK(enclosedBackground(im) == 0);
+                }
+            }
+    dmgpu::checkNoValidationMessages();
+}
+
+TEST_CASE("renderer: the crack counter sees background enclosed by the surface", "[render]") {
+    // The counter must be able to fail: the hole of a torus seen from above is background
+    // that does not touch the image border, as a crack would be.
+    Scene scene = smallScene(200, 150);
+    scene.mesh = "builtin:torus";
+    scene.displacement.k = 3;
+    scene.camera.eye = glm::dvec3(0.3, 0.2, 9.0);
+    scene.camera.target = glm::dvec3(0.0);
+    SceneSurface s(scene);
+    SceneRenderer r(dmgpu::context(), scene, s.surface);
+    const RenderedImage im = r.render(1, 0);
+    dump(im, "torus");
+    CHECK(enclosedBackground(im) > 100);
+    dmgpu::checkNoValidationMessages();
+}
+
+TEST_CASE("renderer: with LOD on the image changes smoothly across a factor sweep", "[render]") {
+    // Seed 004's swimming, on the GPU: the largest change of the shading between factor T and
+    // T + 1/8 over T in [2, 12]. Without mips new detail pops in as factors grow; with the mip
+    // level following the factor the surface only gains what the sampling can carry.
+    auto sweep = [](MipSelection lod) {
+        Scene scene = smallScene(160, 120);
+        scene.effects.lod = lod;
+        SceneSurface s(scene);
+        SceneRenderer r(dmgpu::context(), scene, s.surface);
+        double worst = 0, total = 0;
+        RenderedImage prev;
+        int steps = 0;
+        for (double T = 2.0; T <= 12.0; T += 0.125) {
+            r.setTessValue(T);
+            RenderedImage im = r.render(1, 0);
+            if (!prev.rgba.empty()) {
+                const double e = vulkan::compareImages(im, prev).rmsColor;
+                worst = std::max(worst, e);
+                total += e;
+                ++steps;
+            }
+            prev = std::move(im);
+        }
+        return std::make_pair(worst, total / steps);
+    };
+    const auto off = sweep(MipSelection::Off), on = sweep(MipSelection::TessFactor);
+    INFO("RMS colour change per 1/8 step: mips off worst " << off.first << " mean " << off.second << "; mips on worst "
+                                                          << on.first << " mean " << on.second);
+    CHECK(on.second < 0.6 * off.second);
+    dmgpu::checkNoValidationMessages();
+}
+
+TEST_CASE("renderer: an effect switched off renders what the shaders built without it render", "[render]") {
+    Scene scene = smallScene();
+    scene.effects.lod = MipSelection::Off;
+    SceneSurface s(scene);
+    SceneRenderer full(dmgpu::context(), scene, s.surface);
+    RendererOptions lean;
+    lean.lean = true;
+    SceneRenderer built(dmgpu::context(), scene, s.surface, nullptr, lean);
+    const RenderedImage a = full.render(1, 0), b = built.render(1, 0);
+    CHECK(a.rgba == b.rgba);
+    CHECK(a.stats.triangles == b.stats.triangles);
+    // The lean shaders refuse what they cannot draw.
+    scene.effects.normals = NormalMode::Accurate;
+    CHECK_THROWS_WITH(SceneRenderer(dmgpu::context(), scene, s.surface, nullptr, lean),
+                      Catch::Contains("lean shaders have approximate normals"));
+    dmgpu::checkNoValidationMessages();
+}
+
+TEST_CASE("renderer: every technique and normal mode renders, and the statistics add up", "[render]") {
+    Scene scene = smallScene();
+    SceneSurface s(scene);
+    const BaselineAtlas& atlas = s.bake(scene);
+    std::uint64_t triangles = 0;
+    for (const Technique t : {Technique::Base, Technique::Displaced, Technique::Baseline})
+        for (const NormalMode n : {NormalMode::Approximate, NormalMode::Accurate, NormalMode::Auto}) {
+            scene.effects.technique = t;
+            scene.effects.normals = n;
+            scene.effects.wireframe = n == NormalMode::Auto;
+            SceneRenderer r(dmgpu::context(), scene, s.surface, &atlas);
+            const RenderedImage im = r.render(1, 0);
+            INFO(toString(t) << " / " << int(n));
+            CHECK(im.stats.patches == static_cast<std::uint64_t>(s.base.faceCount()) * (scene.effects.wireframe ? 2 : 1));
+            CHECK(im.stats.triangles > 0);
+            if (!scene.effects.wireframe) {
+                if (triangles == 0) triangles = im.stats.triangles;
+                CHECK(im.stats.triangles == triangles); // same factors, same tessellation
+            }
+            CHECK(covered(im) > im.width * im.height / 20);
+            for (const glm::vec4& v : im.normals)
+                if (v.w > 0.5f) REQUIRE(std::abs(glm::length(glm::vec3(v)) - 1.0f) < 1e-3f);
+        }
+    dmgpu::checkNoValidationMessages();
+}
+
+TEST_CASE("renderer: bad input is a clear error", "[render]") {
+    Scene scene = smallScene();
+    SceneSurface s(scene);
+    scene.effects.technique = Technique::Baseline;
+    CHECK_THROWS_WITH(SceneRenderer(dmgpu::context(), scene, s.surface), Catch::Contains("needs its baked atlas"));
+    scene.effects.technique = Technique::Displaced;
+    scene.width = 0;
+    CHECK_THROWS_WITH(SceneRenderer(dmgpu::context(), scene, s.surface), Catch::Contains("image size"));
+    scene.width = 64;
+    RendererOptions o;
+    o.facesPerDraw = 0;
+    CHECK_THROWS_WITH(SceneRenderer(dmgpu::context(), scene, s.surface, nullptr, o), Catch::Contains("faces per draw"));
+    SceneRenderer r(dmgpu::context(), scene, s.surface);
+    CHECK_THROWS_WITH(r.setTessValue(std::nan("")), Catch::Contains("finite"));
+    CHECK_THROWS_WITH(r.render(0), Catch::Contains("frames"));
+    dmgpu::checkNoValidationMessages();
+}
