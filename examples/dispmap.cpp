@@ -382,7 +382,7 @@ int main(int argc, char** argv) {
     renderCmd->add_option("--device", ra.device, "Vulkan device: index or name substring (default: lavapipe)");
     renderCmd->add_flag("--validation", ra.validation, "enable the validation layer; any message fails");
     std::string renderCsv, renderImages;
-    int renderFrames = 5;
+    int renderFrames = 9;
     benchCmd->add_option("--render-csv", renderCsv, "also write the renderer table as CSV");
     benchCmd->add_option("--render-images", renderImages, "write the renderer table's images (PNG) to this folder");
     benchCmd->add_option("--render-frames", renderFrames, "timed frames per renderer row");
