@@ -20,6 +20,7 @@
 #include "dispmap/displaced_surface.h"
 #include "dispmap/file_io.h"
 #include "dispmap/height_image.h"
+#include "dispmap/scene.h"
 #include "dispmap/tessellator.h"
 #include "dispmap/tile_builder.h"
 #include "dispmap/tile_file.h"
@@ -73,34 +74,18 @@ void addSourceOptions(CLI::App* cmd, SourceArgs& a) {
     cmd->add_option("--load", a.load, "read a tile file instead (with --mesh: check it matches)");
 }
 
-// Builds (or loads) the tile set of `mesh` that `a` describes.
+// Builds (or loads) the tile set of `mesh` that `a` describes (as a scene's displacement).
 TileSet makeTiles(const ControlMesh& mesh, const SourceArgs& a, BuildReport* report) {
-    if (!a.load.empty()) {
-        TileSet ts = loadTiles(a.load);
-        if (topologyHash(mesh) != ts.topologyHash || mesh.ptexFaceCount() != ts.tileCount())
-            throw ArgumentError(a.load + " was built for another mesh than " + a.mesh);
-        return ts;
-    }
-    DisplacementFunction source;
-    if (!a.height.empty()) {
-        auto img = std::make_shared<HeightImage>(readHeightPng(a.height));
-        source = imageSource(mesh, img, a.scale, a.offset, a.wrap);
-    } else if (a.function == "waves") {
-        const double s = a.scale;
-        source = [s](int f, double u, double v) { return s * figures::defaultDisplacement(f, u, v) / 0.07; };
-    } else if (a.function == "zero") {
-        source = [](int, double, double) { return 0.0; };
-    } else {
-        throw ArgumentError("unknown --function '" + a.function + "' (waves, zero)");
-    }
-    BuildOptions o;
-    if (a.filter == "haar")
-        o.filter = MipFilter::Haar;
-    else if (a.filter == "bwavelet")
-        o.filter = MipFilter::BWavelet;
-    else
-        throw ArgumentError("unknown --filter '" + a.filter + "' (haar, bwavelet)");
-    return buildTiles(mesh, uniformTileSizes(mesh, a.k), source, o, report);
+    SceneDisplacement d;
+    d.function = a.function;
+    d.height = a.height;
+    d.tiles = a.load;
+    d.scale = a.scale;
+    d.offset = a.offset;
+    d.wrap = a.wrap;
+    d.k = a.k;
+    d.filter = a.filter;
+    return displacementTiles(mesh, d, report);
 }
 
 ControlMesh loadMesh(const SourceArgs& a, const char* command) {

@@ -28,17 +28,10 @@ layout(std430, binding = 1) readonly buffer Records { uvec4 records[]; };
 layout(std430, binding = 2) readonly buffer Queries { Query queries[]; };
 layout(std430, binding = 3) writeonly buffer Results { vec4 results[]; };
 
-vec3 levelD1(uvec4 r, int m, vec2 uv) {
-    ivec2 texel;
-    vec2 t = dmPackedLocate(r, m, uv, texel);
-    mat3 c;
-    for (int i = 0; i < 3; ++i) {
-        for (int j = 0; j < 3; ++j) {
-            c[i][j] = texels[(texel.y + j) * pc.width + texel.x + i];
-        }
-    }
-    return dmTileD1(c, t, dmRecordTileSize(r) >> m);
+int packedWidth() {
+    return pc.width;
 }
+#include "packed_tiles.glsl"
 
 void main() {
     uint i = gl_GlobalInvocationID.y * pc.rowStride + gl_GlobalInvocationID.x;
@@ -48,10 +41,7 @@ void main() {
     Query qy = queries[i];
     uvec4 r = records[qy.record];
     vec2 uv = dmPatchToTile(qy.uv, dmRecordLocalOffset(r), qy.depth, dmRecordRotation(r));
-    int k = dmTileLog2(dmRecordTileSize(r));
-    float maxRes = dmMaxResolution(k, dmUnpackSizeDifferences(r.w), uv);
-    int mFine;
-    int mCoarse;
-    float w = dmSelectMips(qy.rho, maxRes, k, mFine, mCoarse);
-    results[i] = vec4(dmBlendMips(levelD1(r, mCoarse, uv), levelD1(r, mFine, uv), w), w);
+    float w;
+    vec3 d1 = packedSampleD1(r, uv, qy.rho, w);
+    results[i] = vec4(d1, w);
 }

@@ -154,15 +154,9 @@ Topology buildTopology(const DisplacedSurface& surface, const BaselineAtlas* atl
     // Base vertices: limit position, mip floor (Tessellator: base resolution 2 at vertices of
     // non-quad faces), kMin for seed 004, and the one-ring for the screen-space methods.
     const std::vector<glm::dvec3> limit = baseVertexLimitPositions(base);
+    const VertexMipLimits mips = vertexMipLimits(surface);
     t.baseVertices.resize(static_cast<std::size_t>(nv));
     for (int v = 0; v < nv; ++v) {
-        float floorRes = 1.0f;
-        int kMin = 1 << 20;
-        for (const auto& [tile, c] : topo.incidences(v)) {
-            (void)c;
-            if (topo.scale(tile) > 0) floorRes = 2.0f;
-            kMin = std::min(kMin, surface.tiles().tiles[static_cast<std::size_t>(tile)].k + topo.scale(tile));
-        }
         const Far::ConstIndexArray edges = L.GetVertexEdges(v);
         const int offset = static_cast<int>(t.ring.size());
         for (int i = 0; i < edges.size(); ++i) {
@@ -170,8 +164,8 @@ Topology buildTopology(const DisplacedSurface& surface, const BaselineAtlas* atl
             t.ring.push_back(static_cast<std::uint32_t>(ev[0] == v ? ev[1] : ev[0]));
         }
         GpuBaseVertex& g = t.baseVertices[static_cast<std::size_t>(v)];
-        g.position = glm::vec4(glm::vec3(limit[static_cast<std::size_t>(v)]), floorRes);
-        g.ring = glm::ivec4(offset, edges.size(), std::min(kMin, 1 << 20), L.IsVertexBoundary(v) ? 0 : 1);
+        g.position = glm::vec4(glm::vec3(limit[static_cast<std::size_t>(v)]), float(mips.floorRes[static_cast<std::size_t>(v)]));
+        g.ring = glm::ivec4(offset, edges.size(), mips.kMin[static_cast<std::size_t>(v)], L.IsVertexBoundary(v) ? 0 : 1);
     }
     // TileTopology vertices: the base vertices they are the mean of.
     t.tileVertices.resize(static_cast<std::size_t>(topo.vertexCount()));

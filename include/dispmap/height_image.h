@@ -200,6 +200,22 @@ inline std::uint32_t bigEndian32(const std::vector<unsigned char>& bytes, std::s
            (std::uint32_t{bytes[at + 2]} << 8) | std::uint32_t{bytes[at + 3]};
 }
 
+/// Throws fail(reason) unless `bytes` start with the PNG signature and, where the first
+/// chunk is IHDR (length, "IHDR", width, height), its size is not zero and at most
+/// kMaxHeightImageSize per side: checked before libpng allocates anything, for clearer
+/// messages than libpng's.
+template <class Fail> void checkPngHeader(const std::vector<unsigned char>& bytes, const Fail& fail) {
+    const std::size_t sigBytes = std::min<std::size_t>(bytes.size(), 8);
+    if (sigBytes == 0 || png_sig_cmp(bytes.data(), 0, sigBytes) != 0) throw fail("not a PNG file");
+    if (bytes.size() >= 24 && std::memcmp(bytes.data() + 12, "IHDR", 4) == 0) {
+        const std::uint32_t w = bigEndian32(bytes, 16), h = bigEndian32(bytes, 20);
+        if (w == 0 || h == 0) throw fail("zero size (" + std::to_string(w) + " x " + std::to_string(h) + ")");
+        if (w > kMaxHeightImageSize || h > kMaxHeightImageSize)
+            throw fail("too large (" + std::to_string(w) + " x " + std::to_string(h) + "; at most " +
+                       std::to_string(kMaxHeightImageSize) + " per side)");
+    }
+}
+
 } // namespace detail
 
 /// Reads a greyscale height image (see the top of this file for the accepted formats).
@@ -211,17 +227,7 @@ inline HeightImage readHeightPng(const std::string& path) {
         return FileError("height image '" + path + "': " + why);
     };
 
-    const std::size_t sigBytes = std::min<std::size_t>(bytes.size(), 8);
-    if (sigBytes == 0 || png_sig_cmp(bytes.data(), 0, sigBytes) != 0) throw fail("not a PNG file");
-    // The size in IHDR (always the first chunk: length, "IHDR", width, height) is checked
-    // here, before libpng allocates anything, for clearer messages than libpng's.
-    if (bytes.size() >= 24 && std::memcmp(bytes.data() + 12, "IHDR", 4) == 0) {
-        const std::uint32_t w = detail::bigEndian32(bytes, 16), h = detail::bigEndian32(bytes, 20);
-        if (w == 0 || h == 0) throw fail("zero size (" + std::to_string(w) + " x " + std::to_string(h) + ")");
-        if (w > kMaxHeightImageSize || h > kMaxHeightImageSize)
-            throw fail("too large (" + std::to_string(w) + " x " + std::to_string(h) + "; at most " +
-                       std::to_string(kMaxHeightImageSize) + " per side)");
-    }
+    detail::checkPngHeader(bytes, fail);
 
     detail::PngIo io;
     io.in = bytes.data();
@@ -353,15 +359,7 @@ inline void writeRgbaPng(const std::string& path, int width, int height, const s
 inline RgbaImage readRgbaPng(const std::string& path) {
     const std::vector<unsigned char> bytes = detail::readFileBytes(path, "RGBA image");
     const auto fail = [&](const std::string& why) { return FileError("RGBA image '" + path + "': " + why); };
-    const std::size_t sigBytes = std::min<std::size_t>(bytes.size(), 8);
-    if (sigBytes == 0 || png_sig_cmp(bytes.data(), 0, sigBytes) != 0) throw fail("not a PNG file");
-    if (bytes.size() >= 24 && std::memcmp(bytes.data() + 12, "IHDR", 4) == 0) {
-        const std::uint32_t w = detail::bigEndian32(bytes, 16), h = detail::bigEndian32(bytes, 20);
-        if (w == 0 || h == 0) throw fail("zero size (" + std::to_string(w) + " x " + std::to_string(h) + ")");
-        if (w > kMaxHeightImageSize || h > kMaxHeightImageSize)
-            throw fail("too large (" + std::to_string(w) + " x " + std::to_string(h) + "; at most " +
-                       std::to_string(kMaxHeightImageSize) + " per side)");
-    }
+    detail::checkPngHeader(bytes, fail);
     detail::PngIo io;
     io.in = bytes.data();
     io.inSize = bytes.size();

@@ -513,49 +513,60 @@ inline ControlMesh sceneMesh(const Scene& scene) {
     return ControlMesh::fromObjFile(resolveScenePath(scene, scene.mesh));
 }
 
-/// The scene's tile set on `mesh` (sceneMesh): loaded from the tile file, or built from the
-/// height image or the procedural function with tile sizes 2^k (mixedTileSizes if
-/// mixedSizes) and the scene's mip filter, like `dispmap tiles`. `report` (if given) receives
-/// the fit's report when tiles are built. Throws FileError for a file that cannot be read,
-/// SceneError for a tile file of another mesh and for what the builder rejects (sizes, a mesh
-/// without texture coordinates for a height image, NaN samples).
-inline TileSet sceneTiles(const Scene& scene, const ControlMesh& mesh, BuildReport* report = nullptr) {
-    const SceneDisplacement& d = scene.displacement;
-    const std::string prefix = "scene '" + scene.name + "': ";
+/// The tile set of `mesh` that `d` describes, its paths ready to open: loaded from the tile
+/// file, or built from the height image or the procedural function with tile sizes 2^k
+/// (mixedTileSizes if mixedSizes) and the mip filter (`dispmap tiles` and sceneTiles).
+/// `report` (if given) receives the fit's report when tiles are built. Throws FileError for a
+/// file that cannot be read, ArgumentError naming the field ("displacement.tiles: ...",
+/// "displacement: <builder's reason>") for a tile file of another mesh, an unknown function or
+/// filter, and what the builder rejects (sizes, a mesh without texture coordinates for a
+/// height image, NaN samples).
+inline TileSet displacementTiles(const ControlMesh& mesh, const SceneDisplacement& d, BuildReport* report = nullptr) {
     if (!d.tiles.empty()) {
-        const std::string path = resolveScenePath(scene, d.tiles);
-        TileSet ts = loadTiles(path);
+        TileSet ts = loadTiles(d.tiles);
         if (topologyHash(mesh) != ts.topologyHash || mesh.ptexFaceCount() != ts.tileCount())
-            throw SceneError(prefix + "displacement.tiles: '" + path + "' was built for another mesh than '" +
-                             mesh.description().name + "'");
+            throw ArgumentError("displacement.tiles: '" + d.tiles + "' was built for another mesh than '" +
+                                mesh.description().name + "'");
         return ts;
     }
+    if (d.height.empty() && d.function != "waves" && d.function != "zero")
+        throw ArgumentError("displacement.function: unknown value '" + d.function + "' (waves, zero)");
+    BuildOptions o;
+    if (d.filter == "haar")
+        o.filter = MipFilter::Haar;
+    else if (d.filter == "bwavelet")
+        o.filter = MipFilter::BWavelet;
+    else
+        throw ArgumentError("displacement.filter: unknown value '" + d.filter + "' (haar, bwavelet)");
     try {
         DisplacementFunction source;
         if (!d.height.empty()) {
-            auto img = std::make_shared<HeightImage>(readHeightPng(resolveScenePath(scene, d.height)));
+            auto img = std::make_shared<HeightImage>(readHeightPng(d.height));
             source = imageSource(mesh, img, d.scale, d.offset, d.wrap);
         } else if (d.function == "waves") {
             const double s = d.scale;
             source = [s](int f, double u, double v) { return s * builtin::defaultDisplacement(f, u, v) / 0.07; };
-        } else if (d.function == "zero") {
-            source = [](int, double, double) { return 0.0; };
         } else {
-            throw ArgumentError("displacement.function: unknown value '" + d.function + "' (waves, zero)");
+            source = [](int, double, double) { return 0.0; };
         }
-        BuildOptions o;
-        if (d.filter == "haar")
-            o.filter = MipFilter::Haar;
-        else if (d.filter == "bwavelet")
-            o.filter = MipFilter::BWavelet;
-        else
-            throw ArgumentError("displacement.filter: unknown value '" + d.filter + "' (haar, bwavelet)");
         const std::vector<int> k = d.mixedSizes ? mixedTileSizes(mesh, d.k) : uniformTileSizes(mesh, d.k);
         return buildTiles(mesh, k, source, o, report);
-    } catch (const SceneError&) {
-        throw;
     } catch (const ArgumentError& e) {
-        throw SceneError(prefix + "displacement: " + e.what());
+        throw ArgumentError(std::string("displacement: ") + e.what());
+    }
+}
+
+/// The scene's tile set on `mesh` (sceneMesh): displacementTiles with the paths resolved
+/// against the scene's directory. Throws FileError for a file that cannot be read, SceneError
+/// (naming the scene) for everything displacementTiles rejects.
+inline TileSet sceneTiles(const Scene& scene, const ControlMesh& mesh, BuildReport* report = nullptr) {
+    SceneDisplacement d = scene.displacement;
+    if (!d.tiles.empty()) d.tiles = resolveScenePath(scene, d.tiles);
+    if (!d.height.empty()) d.height = resolveScenePath(scene, d.height);
+    try {
+        return displacementTiles(mesh, d, report);
+    } catch (const ArgumentError& e) {
+        throw SceneError("scene '" + scene.name + "': " + e.what());
     }
 }
 

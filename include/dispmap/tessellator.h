@@ -232,6 +232,28 @@ inline TessFactors distanceTessFactors(const BaseSurface& base, const glm::dvec3
     return tessFactorsFromBaseVertices(base, f);
 }
 
+/// What limits the mip choice at each base vertex (the Tessellator's rules; the GPU renderer
+/// uploads the same): floorRes, the coarsest base resolution read there (2 at vertices of
+/// non-quad faces, see the header, else 1), and kMin, the smallest k + scale of the tiles
+/// around it (seed 004's texel count; 1 << 20 where no tile touches the vertex).
+struct VertexMipLimits {
+    std::vector<double> floorRes;
+    std::vector<int> kMin;
+};
+inline VertexMipLimits vertexMipLimits(const DisplacedSurface& surface) {
+    const TileTopology& topo = surface.base().topology();
+    const int nv = detail::baseLevel(surface.base()).GetNumVertices();
+    VertexMipLimits m{std::vector<double>(static_cast<std::size_t>(nv), 1.0), std::vector<int>(static_cast<std::size_t>(nv), 1 << 20)};
+    for (int v = 0; v < nv; ++v)
+        for (const auto& [t, c] : topo.incidences(v)) {
+            (void)c;
+            if (topo.scale(t) > 0) m.floorRes[static_cast<std::size_t>(v)] = 2.0;
+            m.kMin[static_cast<std::size_t>(v)] =
+                std::min(m.kMin[static_cast<std::size_t>(v)], surface.tiles().tiles[static_cast<std::size_t>(t)].k + topo.scale(t));
+        }
+    return m;
+}
+
 /// Per-tile factors and the mip rule of one DisplacedSurface, and the tessellation itself.
 class Tessellator {
   public:
@@ -304,14 +326,9 @@ inline Tessellator::Tessellator(const DisplacedSurface& surface, TessFactors fac
     if (options.mips == MipSelection::Off) return;
 
     // Per base vertex: the mip value, with the floor at vertices of non-quad faces.
-    std::vector<double> floorRes(static_cast<std::size_t>(nv_), 1.0);
-    std::vector<int> kMin(static_cast<std::size_t>(nv_), 1 << 20);
-    for (int v = 0; v < nv_; ++v)
-        for (const auto& [t, c] : topo.incidences(v)) {
-            if (topo.scale(t) > 0) floorRes[static_cast<std::size_t>(v)] = 2.0;
-            kMin[static_cast<std::size_t>(v)] =
-                std::min(kMin[static_cast<std::size_t>(v)], surface.tiles().tiles[static_cast<std::size_t>(t)].k + topo.scale(t));
-        }
+    const VertexMipLimits limits = vertexMipLimits(surface);
+    const std::vector<double>& floorRes = limits.floorRes;
+    const std::vector<int>& kMin = limits.kMin;
     std::vector<double> perVertex(static_cast<std::size_t>(nv_));
     for (int v = 0; v < nv_; ++v) {
         const std::size_t i = static_cast<std::size_t>(v);

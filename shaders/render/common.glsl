@@ -84,27 +84,15 @@ layout(std430, set = 0, binding = 15) buffer Capture {
 layout(set = 0, binding = 16) uniform sampler2D baselineHeight;
 layout(set = 0, binding = 17) uniform sampler2D baselineNormal;
 
-// (D, D_u, D_v) at face (u, v) read at resolution rho: PackedTiles::sampleD1, gather for gather.
-vec3 tileLevelD1(uvec4 r, int m, vec2 uv) {
-    ivec2 texel;
-    vec2 t = dmPackedLocate(r, m, uv, texel);
-    mat3 c;
-    for (int i = 0; i < 3; ++i) {
-        for (int j = 0; j < 3; ++j) {
-            c[i][j] = texels[(texel.y + j) * P.counts.z + texel.x + i];
-        }
-    }
-    return dmTileD1(c, t, dmRecordTileSize(r) >> m);
+int packedWidth() {
+    return P.counts.z;
 }
+#include "../packed_tiles.glsl"
 
+// (D, D_u, D_v) at face (u, v) read at resolution rho (the tile records are per Ptex face).
 vec3 sampleD1(int face, vec2 uv, float rho) {
-    uvec4 r = records[face];
-    int k = dmTileLog2(dmRecordTileSize(r));
-    float maxRes = dmMaxResolution(k, dmUnpackSizeDifferences(r.w), uv);
-    int mFine;
-    int mCoarse;
-    float w = dmSelectMips(rho, maxRes, k, mFine, mCoarse);
-    return dmBlendMips(tileLevelD1(r, mCoarse, uv), tileLevelD1(r, mFine, uv), w);
+    float weight;
+    return packedSampleD1(records[face], uv, rho, weight);
 }
 
 // The baseline atlas coordinate of face (u, v) (include/dispmap/baseline.h).

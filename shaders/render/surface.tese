@@ -52,7 +52,14 @@ void main() {
     vec3 suu = vec3(0.0);
     vec3 suv = vec3(0.0);
     vec3 svv = vec3(0.0);
-    dmPatchBasis1(param, count, uv, w, wu, wv);
+    // Second derivatives for accurate normals (N_u, N_v); otherwise only where s_u x s_v
+    // vanishes, for the base normal's fallback. dmPatchBasis1's weights are dmPatchBasis2's,
+    // bit for bit, so either route gives the same p, s_u, s_v.
+    if (accurate) {
+        dmPatchBasis2(param, count, uv, w, wu, wv, wuu, wuv, wvv);
+    } else {
+        dmPatchBasis1(param, count, uv, w, wu, wv);
+    }
     for (int i = 0; i < count; ++i) {
         vec3 x = points[patchIndices[patchRec.x + uint(i)]].xyz;
         p += w[i] * x;
@@ -60,9 +67,11 @@ void main() {
         sv += wv[i] * x;
     }
     vec3 n0 = cross(su, sv);
-    if (accurate || !(dmDot3(n0, n0) > 0.0)) {
-        // Second derivatives: for N_u, N_v, and for the base normal where s_u x s_v vanishes.
+    bool degenerate = !(dmDot3(n0, n0) > 0.0);
+    if (degenerate && !accurate) {
         dmPatchBasis2(param, count, uv, w, wu, wv, wuu, wuv, wvv);
+    }
+    if (accurate || degenerate) {
         for (int i = 0; i < count; ++i) {
             vec3 x = points[patchIndices[patchRec.x + uint(i)]].xyz;
             suu += wuu[i] * x;

@@ -297,6 +297,23 @@ TEST_CASE("renderer: an effect switched off renders what the shaders built witho
     dmgpu::checkNoValidationMessages();
 }
 
+TEST_CASE("renderer: with zero displacement accurate and approximate normals are the same image", "[render]") {
+    // D = 0: f_u = s_u + N_u D + N D_u = s_u in both modes, so the two shaders must agree bit
+    // for bit; a wrong s_u, s_v or N_u, N_v on the accurate route (which evaluates the second
+    // derivatives) shows here.
+    Scene scene = smallScene();
+    scene.displacement.function = "zero";
+    scene.effects.tessValue = 5;
+    SceneSurface s(scene);
+    const RenderedImage approx = SceneRenderer(dmgpu::context(), scene, s.surface).render(1, 0);
+    scene.effects.normals = NormalMode::Accurate;
+    const RenderedImage accurate = SceneRenderer(dmgpu::context(), scene, s.surface).render(1, 0);
+    REQUIRE(covered(approx) > approx.width * approx.height / 20);
+    CHECK(vulkan::compareImages(accurate, approx).maxNormalDeg == 0.0);
+    CHECK(accurate.rgba == approx.rgba);
+    dmgpu::checkNoValidationMessages();
+}
+
 TEST_CASE("renderer: every technique and normal mode renders, and the statistics add up", "[render]") {
     Scene scene = smallScene();
     SceneSurface s(scene);
