@@ -4,3 +4,4 @@
 #include "dispmap/kernels/lod.h"
 #include "dispmap/kernels/tile.h"
 #include "dispmap/kernels/normal.h"
+#include "dispmap/kernels/meso.h"

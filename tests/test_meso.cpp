@@ -1,0 +1,442 @@
+// Mesostructure maps and marchers: exact distance transforms against brute force,
+// conservativeness of the directional maps, lossless compression, quadrics against their
+// patches, the root solver against long double, every marcher on hard cases, bad inputs.
+#include <catch2/catch.hpp>
+
+#include <random>
+
+#include "dispmap/meso_march.h"
+#include "test_meso_support.h"
+
+using namespace dispmap;
+using dmtest::mesoField;
+
+TEST_CASE("FH 1D transform equals brute force, with +Inf and spacing", "[meso][edt]") {
+    std::mt19937 rng(7);
+    const double inf = std::numeric_limits<double>::infinity();
+    for (int trial = 0; trial < 300; ++trial) {
+        const int n = 1 + trial % 23;
+        const double w2 = trial % 3 == 0 ? 1.0 : trial % 3 == 1 ? 0.25 : 6.25;
+        std::vector<double> f(static_cast<std::size_t>(n)), d(f.size()), z(f.size() + 1);
+        std::vector<int> v(f.size());
+        for (double& x : f) {
+            const int r = static_cast<int>(rng() % 5);
+            x = r == 0 ? inf : static_cast<double>(rng() % 40) * (r == 1 ? 0.0 : 0.5);
+        }
+        distanceTransform1D(f.data(), n, w2, d.data(), v.data(), z.data());
+        for (int q = 0; q < n; ++q) {
+            double best = inf;
+            for (int p = 0; p < n; ++p) best = std::min(best, w2 * (q - p) * (q - p) + f[static_cast<std::size_t>(p)]);
+            INFO("n " << n << " q " << q);
+            CHECK(d[static_cast<std::size_t>(q)] == best); // exact: same expression, same argmin value
+        }
+    }
+}
+
+TEST_CASE("Donnelly's distance map is the exact distance to the column model", "[meso][edt]") {
+    // Periodic, so the nearest column may be across the seam; heights continuous.
+    const MesoHeightField hf = mesoField(9, 7, 6, [](int i, int j) { return std::fmod(0.7 * i * i + 1.3 * j, 6.0); });
+    const DistanceMap m = buildDistanceMap(hf, 1);
+    for (int k = 0; k < hf.layers; ++k)
+        for (int y = 0; y < hf.height; ++y)
+            for (int x = 0; x < hf.width; ++x) {
+                // Outside: distance to the solid's half-lines; inside: minus that to the air's.
+                double best = std::numeric_limits<double>::infinity(), air = best;
+                for (int j = 0; j < hf.height; ++j)
+                    for (int i = 0; i < hf.width; ++i)
+                        for (int pj = -1; pj <= 1; ++pj)
+                            for (int pi = -1; pi <= 1; ++pi) {
+                                const double dx = x - (i + pi * hf.width), dy = y - (j + pj * hf.height);
+                                const double up = std::max(0.0, k + 0.5 - static_cast<double>(hf.at(i, j)));
+                                const double down = std::max(0.0, static_cast<double>(hf.at(i, j)) - (k + 0.5));
+                                best = std::min(best, dy * dy + (dx * dx + up * up));
+                                air = std::min(air, dy * dy + (dx * dx + down * down));
+                            }
+                INFO("sample " << x << "," << y << "," << k);
+                CHECK(m.at(x, y, k) == static_cast<float>(best > 0 ? std::sqrt(best) : -std::sqrt(air)));
+            }
+}
+
+TEST_CASE("directional distances never exceed the distance along any ray from their voxel", "[meso][ddm]") {
+    // Steep walls, a one-texel spike and smooth slopes; 4 x 2 view cones, shadow cones and the
+    // isotropic set. Rays from random points of each voxel in random directions of its cone,
+    // traced exactly in double: the first hit is never closer than the stored distance.
+    const MesoHeightField hf = dmtest::hardField(12, 12, 8);
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> U(0.0, 1.0);
+    for (ConeSet cones : {ConeSet{4, 2, true, false}, ConeSet{8, 1, false, false}, ConeSet::all()}) {
+        const DirectionalDistanceMap m = buildDdm(hf, cones);
+        int zeros = 0, checked = 0;
+        for (int c = 0; c < cones.count(); ++c)
+            for (int k = 0; k < hf.layers; ++k)
+                for (int j = 0; j < hf.height; ++j)
+                    for (int i = 0; i < hf.width; ++i) {
+                        const float stored = m.at(c, i, j, k);
+                        zeros += stored == 0;
+                        if (stored == 0) continue;
+                        for (int s = 0; s < 6; ++s) {
+                            const glm::dvec3 o(i + U(rng), j + U(rng), k + U(rng));
+                            glm::dvec3 d;
+                            do {
+                                d = glm::normalize(glm::dvec3(U(rng) * 2 - 1, U(rng) * 2 - 1, U(rng) * 2 - 1));
+                            } while (kern::dmConeIndex(d, cones.kernelM(), cones.n) != c || (!cones.shadow && !cones.isotropic && d.z > 0));
+                            const MesoHit h = marchReference<double>(hf, o, d);
+                            ++checked;
+                            if (!h.hit) continue;
+                            INFO(cones.name() << " cone " << c << " voxel " << i << "," << j << "," << k << " stored " << stored
+                                              << " hit at " << h.t);
+                            REQUIRE(h.t >= static_cast<double>(stored) - 1e-12);
+                        }
+                    }
+        CHECK(zeros > 0);
+        CHECK(checked > 1000);
+    }
+}
+
+TEST_CASE("cones: the kernel's index agrees with the builder's angular ranges", "[meso][ddm]") {
+    std::mt19937 rng(3);
+    std::normal_distribution<double> N(0.0, 1.0);
+    for (ConeSet cones : {ConeSet{1, 1, true, false}, ConeSet{2, 1, true, false}, ConeSet{4, 2, true, false}, ConeSet{8, 2, true, false}}) {
+        for (int s = 0; s < 4000; ++s) {
+            const glm::dvec3 d = glm::normalize(glm::dvec3(N(rng), N(rng), N(rng)));
+            const int c = kern::dmConeIndex(d, cones.m, cones.n);
+            REQUIRE(c >= 0);
+            REQUIRE(c < cones.count());
+            double az[2], el[2];
+            cones.range(c, az, el);
+            double theta = std::atan2(d.y, d.x);
+            if (theta < 0) theta += 2 * 3.14159265358979323846;
+            const double phi = std::asin(d.z);
+            CHECK(theta >= az[0] - 1e-12);
+            CHECK(theta <= az[1] + 1e-12);
+            CHECK(phi >= el[0] - 1e-12);
+            CHECK(phi <= el[1] + 1e-12);
+        }
+    }
+}
+
+TEST_CASE("min-filtered levels hold the minimum and stay conservative", "[meso][ddm]") {
+    const MesoHeightField hf = dmtest::hardField(16, 16, 8);
+    const ConeSet cones{4, 1, false, false};
+    const DirectionalDistanceMap fine = buildDdm(hf, cones);
+    const DirectionalDistanceMap coarse = minFilter(fine);
+    REQUIRE(coarse.width == 8);
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> U(0.0, 1.0);
+    for (int c = 0; c < cones.count(); ++c)
+        for (int k = 0; k < coarse.layers; ++k)
+            for (int j = 0; j < coarse.height; ++j)
+                for (int i = 0; i < coarse.width; ++i) {
+                    float lo = std::numeric_limits<float>::infinity();
+                    for (int e = 0; e < 8; ++e) lo = std::min(lo, fine.at(c, 2 * i + (e & 1), 2 * j + (e >> 1 & 1), 2 * k + (e >> 2)));
+                    REQUIRE(coarse.at(c, i, j, k) == lo);
+                    // A ray from anywhere in the coarse voxel (2x the size) within the cone.
+                    const glm::dvec3 o(2 * (i + U(rng)), 2 * (j + U(rng)), 2 * (k + U(rng)));
+                    glm::dvec3 d;
+                    do {
+                        d = glm::normalize(glm::dvec3(U(rng) * 2 - 1, U(rng) * 2 - 1, -U(rng)));
+                    } while (kern::dmConeIndex(d, cones.m, cones.n) != c);
+                    const MesoHit h = marchReference<double>(hf, o, d);
+                    if (h.hit) REQUIRE(h.t >= static_cast<double>(lo) - 1e-12);
+                }
+    CHECK_THROWS_AS(minFilter(coarse.width % 2 ? coarse : minFilter(minFilter(coarse))), ArgumentError);
+}
+
+TEST_CASE("compression: atlas blocks read back bit for bit, the rest their block minimum", "[meso][ddm]") {
+    const MesoHeightField hf = dmtest::hardField(16, 16, 8);
+    const ConeSet cones{4, 1, true, false};
+    const DirectionalDistanceMap m = buildDdm(hf, cones);
+    const CompressedDdm c = compressDdm(m, 4);
+    CHECK(c.atlasBlocks() > 0);
+    CHECK(c.ratio() > 1.0);
+    for (int cone = 0; cone < cones.count(); ++cone)
+        for (int k = 0; k < m.layers; ++k)
+            for (int j = 0; j < m.height; ++j)
+                for (int i = 0; i < m.width; ++i) {
+                    const int bx = i / 4, by = j / 4, bz = k / 4;
+                    float lo = std::numeric_limits<float>::infinity();
+                    for (int e = 0; e < 64; ++e) lo = std::min(lo, m.at(cone, bx * 4 + e % 4, by * 4 + e / 4 % 4, bz * 4 + e / 16));
+                    const float got = c.lookup(cone, i, j, k), want = lo == 0 ? m.at(cone, i, j, k) : lo;
+                    REQUIRE(std::memcmp(&got, &want, sizeof got) == 0);
+                }
+    // The march finds the same hits through the compressed and the dense map.
+    const ColumnQuadrics q = buildColumnQuadrics(hf);
+    std::mt19937 rng(9);
+    std::uniform_real_distribution<double> U(0.0, 1.0);
+    for (int s = 0; s < 2000; ++s) {
+        const glm::dvec3 o(U(rng) * 16, U(rng) * 16, 8.0);
+        const glm::dvec3 d = glm::normalize(glm::dvec3(U(rng) * 2 - 1, U(rng) * 2 - 1, -0.05 - U(rng)));
+        const MesoHit a = marchDdm<double>(DenseDdmView{&m}, cones, 8, &q, o, d, {});
+        const MesoHit b = marchDdm<double>(CompressedDdmView{&c}, cones, 8, &q, o, d, {});
+        REQUIRE(a.hit == b.hit);
+        REQUIRE(a.t == Approx(b.t).margin(1e-9));
+    }
+    CHECK_THROWS_AS(compressDdm(m, 3), ArgumentError);
+}
+
+TEST_CASE("quadrics of bilinear and triangular patches contain their patches", "[meso][quadric]") {
+    std::mt19937 rng(13);
+    std::uniform_real_distribution<double> U(-1.0, 1.0);
+    for (int trial = 0; trial < 400; ++trial) {
+        // General patches, and patches flattened towards planar ones (the degenerate branch).
+        const double flat = trial % 4 == 0 ? 0.0 : std::pow(10.0, -(trial % 13));
+        const glm::dvec3 P1(0, 0, 0), P2(1 + 0.3 * U(rng), 0.2 * U(rng), 0.2 * U(rng)), P4(0.2 * U(rng), 1 + 0.3 * U(rng), 0.2 * U(rng));
+        const glm::dvec3 n = glm::normalize(glm::cross(P2 - P1, P4 - P1));
+        const glm::dvec3 P3 = P2 + P4 - P1 + glm::dvec3(0.3 * U(rng), 0.3 * U(rng), 0) + flat * U(rng) * n;
+        const glm::dvec3 c = 0.25 * (P1 + P2 + P3 + P4); // P(1/2, 1/2)
+        const Quadric q = bilinearPatchQuadric(P1, P2, P3, P4, c - 0.1 * n);
+        for (int s = 0; s < 16; ++s) {
+            const double u = (s % 4) / 3.0, v = (s / 4) / 3.0;
+            const glm::dvec3 p = (1 - u) * (1 - v) * P1 + u * (1 - v) * P2 + u * v * P3 + (1 - u) * v * P4;
+            INFO("trial " << trial << " flat " << flat);
+            CHECK(std::abs(q(p)) < 1e-9);
+        }
+        // Orientation: positive on the inside. (A strongly twisted, nearly planar patch's quadric
+        // folds back close to the patch: its extension beyond [0, 1]^2 is near, so the probe
+        // is short and skipped where the fold is nearer than it.)
+        if (flat == 0 || flat >= 1e-2) {
+            CHECK(q(c - 1e-3 * n) > 0);
+            CHECK(q(c + 1e-3 * n) < 0);
+        }
+        const Quadric t = triangleQuadric(P1, P2, P4, c - n);
+        CHECK(std::abs(t(0.2 * P1 + 0.3 * P2 + 0.5 * P4)) < 1e-12);
+    }
+    CHECK_THROWS_AS(bilinearPatchQuadric({0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {3, 0, 0}, {0, 0, -1}), ArgumentError);
+    CHECK_THROWS_AS(triangleQuadric({0, 0, 0}, {1, 1, 1}, {2, 2, 2}, {0, 0, -1}), ArgumentError);
+}
+
+TEST_CASE("ray-quadric roots of column quadrics equal the exact height-cell roots", "[meso][quadric]") {
+    // The column quadric (Appendix B) and the direct cell equation (the reference) are two
+    // formulations of one surface: in double their first hits agree to rounding.
+    const MesoHeightField hf = dmtest::hardField(12, 12, 8);
+    const ColumnQuadrics q = buildColumnQuadrics(hf);
+    std::mt19937 rng(17);
+    std::uniform_real_distribution<double> U(0.0, 1.0);
+    int hits = 0;
+    for (int s = 0; s < 20000; ++s) {
+        const int i = static_cast<int>(rng() % 12), j = static_cast<int>(rng() % 12);
+        const glm::dvec3 o(U(rng), U(rng), 8.0 * U(rng));
+        const glm::dvec3 d = glm::normalize(glm::dvec3(U(rng) * 2 - 1, U(rng) * 2 - 1, U(rng) * 2 - 1));
+        const glm::dvec4 h(hf.cell(i, j));
+        // Exact polynomial evaluation needs the stored (float) quadric in double.
+        const std::size_t at = 3 * static_cast<std::size_t>(j * 12 + i);
+        const glm::dvec4 qa(q.q[at]), qb(q.q[at + 1]), qc(q.q[at + 2]);
+        double sCell = 0, sQuad = 0;
+        const double len = 0.5;
+        const bool a = kern::dmRayHeightCell(o, d, h, len, 1e-14, sCell);
+        const bool b = kern::dmRayQuadric(qa, qb, qc, o, d, len, 1e-14, sQuad);
+        if (a != b) {
+            // Only a tangent graze or a hit at the segment's end may differ.
+            const double margin = 1e-5;
+            const double fEnd = (o + len * d).z - kern::dmBilerp(h, glm::dvec2(o.x + len * d.x, o.y + len * d.y));
+            INFO("cell " << i << "," << j << " o " << o.x << "," << o.y << "," << o.z << " fEnd " << fEnd);
+            CHECK(std::abs(fEnd) < margin);
+            continue;
+        }
+        if (a) {
+            ++hits;
+            INFO("cell " << i << "," << j);
+            CHECK(sCell == Approx(sQuad).margin(1e-5));
+        }
+    }
+    CHECK(hits > 2000);
+}
+
+TEST_CASE("quadratic roots: stable against long double on adversarial coefficients", "[meso][roots]") {
+    // Cancellation (b^2 >> 4ac), a -> 0, near-double roots, scaled over decades; float and
+    // double. Reference roots in long double from the same rounded coefficients.
+    auto check = [](auto a, auto b, auto c, double relBound) {
+        using real = decltype(a);
+        real t0, t1;
+        const int n = kern::dmQuadraticRoots(a, b, c, mesoRootTolerance<real>(), t0, t1);
+        const long double A = a, B = b, C = c, disc = B * B - 4 * A * C;
+        if (A == 0) {
+            REQUIRE(n == (B != 0 ? 1 : 0));
+            if (n) CHECK(std::abs(static_cast<long double>(t0) - (-C / B)) <= relBound * std::abs(C / B));
+            return;
+        }
+        const long double scale = std::sqrt(B * B + std::abs(4 * A * C));
+        if (disc < -1e-6L * scale * scale) {
+            CHECK(n == 0);
+            return;
+        }
+        if (disc < 0) return; // inside the tangent band: either answer is right
+        REQUIRE(n == 2);
+        const long double sq = std::sqrt(disc), q = -0.5L * (B + (B < 0 ? -sq : sq));
+        long double r0 = q / A, r1 = C / q;
+        if (r0 > r1) std::swap(r0, r1);
+        // Each root to a few ULP of itself, except a near-double root, which is conditioned by
+        // sqrt(eps) (the discriminant's own rounding): bound relative to the root spacing.
+        const long double spread = std::sqrt(std::numeric_limits<real>::epsilon() * scale * scale) / std::abs(A);
+        CHECK(std::abs(t0 - r0) <= relBound * std::abs(r0) + (disc < 1e-4L * scale * scale ? spread : 0));
+        CHECK(std::abs(t1 - r1) <= relBound * std::abs(r1) + (disc < 1e-4L * scale * scale ? spread : 0));
+    };
+    std::mt19937_64 rng(21);
+    std::uniform_real_distribution<double> U(-1.0, 1.0), E(-6.0, 6.0);
+    for (int s = 0; s < 20000; ++s) {
+        const double a = U(rng) * std::pow(10.0, E(rng)), b = U(rng) * std::pow(10.0, E(rng)), c = U(rng) * std::pow(10.0, E(rng));
+        check(a, b, c, 8 * std::numeric_limits<double>::epsilon());
+        check(static_cast<float>(a), static_cast<float>(b), static_cast<float>(c), 8 * std::numeric_limits<float>::epsilon());
+        // Catastrophic cancellation: roots ~ -b/a and ~ -c/b, 12 decades apart.
+        check(1e-6 * std::abs(a) + 1e-300, 1e6, c, 8 * std::numeric_limits<double>::epsilon());
+        check(1e-3f, 1e3f, static_cast<float>(c), 8 * std::numeric_limits<float>::epsilon());
+        // Near-double root: (t - r)^2 + tiny.
+        const double r = U(rng) * 10;
+        check(1.0, -2 * r, r * r + 1e-12 * U(rng), 8 * std::numeric_limits<double>::epsilon());
+        check(1.0f, static_cast<float>(-2 * r), static_cast<float>(r * r), 8 * std::numeric_limits<float>::epsilon());
+    }
+    // The naive formula loses the small root completely where the stable one keeps it.
+    const double a = 1, b = 1e8, c = 1;
+    double t0, t1;
+    REQUIRE(kern::dmQuadraticRoots(a, b, c, 1e-15, t0, t1) == 2);
+    const double naive = (-b + std::sqrt(b * b - 4 * a * c)) / (2 * a);
+    CHECK(t1 == Approx(-1e-8).epsilon(1e-15));
+    CHECK(std::abs(naive - (-1e-8)) > 1e-10); // naive: off by > 1 %
+    // a == 0 exactly, and a 1e-30: the finite root stays -c/b.
+    REQUIRE(kern::dmQuadraticRoots(0.0, 2.0, -1.0, 1e-15, t0, t1) == 1);
+    CHECK(t0 == 0.5);
+    REQUIRE(kern::dmQuadraticRoots(1e-30, 2.0, -1.0, 1e-15, t0, t1) == 2);
+    CHECK((t0 == 0.5 || t1 == 0.5));
+    CHECK(kern::dmQuadraticRoots(0.0, 0.0, 1.0, 1e-15, t0, t1) == 0);
+}
+
+TEST_CASE("bad inputs are clear errors", "[meso][errors]") {
+    CHECK_THROWS_WITH(mesoHeightField(0, 4, 4, {}), Catch::Contains("out of range"));
+    CHECK_THROWS_WITH(mesoHeightField(4, 4, 4, std::vector<float>(15, 1.0f)), Catch::Contains("15 heights for 4 x 4"));
+    std::vector<float> nan(16, 1.0f);
+    nan[5] = std::numeric_limits<float>::quiet_NaN();
+    CHECK_THROWS_WITH(mesoHeightField(4, 4, 4, nan), Catch::Contains("texel (1, 1)"));
+    CHECK_THROWS_WITH(mesoHeightField(4, 4, 4, std::vector<float>(16, 5.0f)), Catch::Contains("not in [0, 4]"));
+    CHECK_THROWS_WITH(mesoHeightField(4, 4, 1, std::vector<float>(16, 0.5f)), Catch::Contains("layers"));
+    const MesoHeightField hf = mesoField(4, 4, 4, [](int, int) { return 1.0; });
+    CHECK_THROWS_WITH(buildDdm(hf, ConeSet{0, 1, false, false}), Catch::Contains("zero cones"));
+    CHECK_THROWS_WITH(buildDdm(hf, ConeSet{3, 1, false, false}), Catch::Contains("not supported"));
+    struct Img {
+        int width = 0, height = 0;
+        std::vector<float> values;
+    } empty;
+    CHECK_THROWS_WITH(mesoHeightFieldFromImage(empty, 8), Catch::Contains("empty"));
+    const DirectionalDistanceMap m = buildDdm(hf, ConeSet{4, 1, false, false});
+    CHECK_THROWS_WITH(marchDdm<float>(DenseDdmView{&m}, m.cones, 4, nullptr, {1, 1, 4}, {0, 0, 1}, DdmMarch{256, false, 1}),
+                      Catch::Contains("shadow cones"));
+    CHECK_THROWS_WITH(marchDdm<float>(DenseDdmView{&m}, m.cones, 4, nullptr, {1, 1, 4}, {0, 0, -1}, DdmMarch{}),
+                      Catch::Contains("quadric"));
+    CHECK_THROWS_WITH(marchReference<double>(hf, {1, 1, 4}, {0, 0, -2}), Catch::Contains("unit direction"));
+    CHECK_THROWS_WITH(marchHeightSearch<double>(hf, {1, 1, 4}, {0, 0, 1}, 8, 4), Catch::Contains("d.z < 0"));
+}
+
+namespace {
+// Rays from the top plane in every direction of the lower hemisphere down to grazing ones
+// (d.z = -0.01), from random points, seeded.
+std::vector<std::pair<glm::dvec3, glm::dvec3>> viewRays(const MesoHeightField& hf, int count, unsigned seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> U(0.0, 1.0);
+    std::vector<std::pair<glm::dvec3, glm::dvec3>> rays;
+    for (int s = 0; s < count; ++s) {
+        const double a = 6.283185307179586 * U(rng), grazing = s % 4 == 0 ? 0.01 + 0.05 * U(rng) : 0.05 + U(rng);
+        const glm::dvec3 d = glm::normalize(glm::dvec3(std::cos(a), std::sin(a), -grazing));
+        rays.push_back({glm::dvec3(U(rng) * hf.width, U(rng) * hf.height, hf.layers), d});
+    }
+    return rays;
+}
+} // namespace
+
+TEST_CASE("conservative marchers find the exact first hit, thin walls and grazing rays included", "[meso][march]") {
+    // DDM + quadric: the hit is the analytic root in the first voxel the surface crosses, so it
+    // equals the exact reference (double: 1e-9 voxels; float: 2e-3 voxels = a few float ULP of
+    // the ray parameter on a 12-layer slab crossed at grazing angles). Without quadrics it
+    // stops at the first voxel whose distance is 0: never beyond the reference hit.
+    const MesoHeightField hf = dmtest::hardField(24, 24, 12);
+    const ColumnQuadrics q = buildColumnQuadrics(hf);
+    const auto rays = viewRays(hf, 1500, 23);
+    for (ConeSet cones : {ConeSet::all(), ConeSet{2, 1, false, false}, ConeSet{4, 1, false, false}, ConeSet{8, 2, false, false}}) {
+        const DirectionalDistanceMap m = buildDdm(hf, cones);
+        const CompressedDdm c = compressDdm(m, 4);
+        for (int exitRule : {0, 1}) {
+            DdmMarch opt;
+            opt.exitRule = exitRule;
+            opt.maxIterations = 4096;
+            DdmMarch bare = opt;
+            bare.quadrics = false;
+            for (const auto& [o, d] : rays) {
+                const MesoHit ref = marchReference<double>(hf, o, d);
+                const MesoHit hd = marchDdm<double>(CompressedDdmView{&c}, cones, hf.layers, &q, o, d, opt);
+                const MesoHit hf32 = marchDdm<float>(CompressedDdmView{&c}, cones, hf.layers, &q, o, d, opt);
+                const MesoHit stop = marchDdm<double>(CompressedDdmView{&c}, cones, hf.layers, nullptr, o, d, bare);
+                INFO(cones.name() << " exit rule " << exitRule << " o " << o.x << "," << o.y << " d " << d.x << "," << d.y << "," << d.z
+                                  << " ref " << ref.hit << " " << ref.t);
+                REQUIRE(ref.hit);
+                REQUIRE(hd.hit);
+                REQUIRE(hd.t == Approx(ref.t).margin(1e-9));
+                REQUIRE(hf32.hit);
+                REQUIRE(std::abs(hf32.t - ref.t) < 2e-3 * std::max(1.0, ref.t / hf.layers));
+                REQUIRE(stop.hit);
+                REQUIRE(stop.t <= ref.t + 1e-9);
+            }
+        }
+    }
+}
+
+TEST_CASE("rays that start inside, shadow rays that leave or are blocked", "[meso][march]") {
+    const MesoHeightField hf = dmtest::hardField(16, 16, 8);
+    const ColumnQuadrics q = buildColumnQuadrics(hf);
+    const ConeSet cones{4, 1, true, false};
+    const DirectionalDistanceMap m = buildDdm(hf, cones);
+    const DenseDdmView view{&m};
+    // Inside the solid under the slope: a hit at t = 0, whatever the direction.
+    for (const glm::dvec3 d : {glm::dvec3(0, 0, -1), glm::normalize(glm::dvec3(1, 1, 0.3)), glm::dvec3(1, 0, 0)}) {
+        const glm::dvec3 o(7.3, 5.2, 0.5);
+        CHECK(marchReference<double>(hf, o, d).t == 0);
+        const MesoHit h = marchDdm<double>(view, cones, hf.layers, &q, o, d, {});
+        CHECK(h.hit);
+        CHECK(h.t == 0);
+    }
+    // Straight up from above the surface: lit; from the floor (j = 0..1) towards the thin wall
+    // at i = 2 (height 7.75) at 20 degrees: blocked, at the same t as the reference.
+    const glm::dvec3 up(0, 0, 1);
+    CHECK_FALSE(marchDdm<double>(view, cones, hf.layers, &q, {5.5, 5.5, 4.0}, up, {}).hit);
+    CHECK_FALSE(marchReference<double>(hf, {5.5, 5.5, 4.0}, up).hit);
+    const glm::dvec3 toWall = glm::normalize(glm::dvec3(-1, 0, std::tan(0.35)));
+    const glm::dvec3 floor(6.0, 0.5, 0.01);
+    const MesoHit ref = marchReference<double>(hf, floor, toWall);
+    const MesoHit h = marchDdm<double>(view, cones, hf.layers, &q, floor, toWall, {});
+    REQUIRE(ref.hit);
+    CHECK(h.hit);
+    CHECK(h.t == Approx(ref.t).margin(1e-9));
+    // A ray that leaves through the top: a miss for the reference and the marchers.
+    const glm::dvec3 out = glm::normalize(glm::dvec3(1, 0.2, 0.5));
+    CHECK_FALSE(marchReference<double>(hf, {9.5, 9.5, 7.5}, out).hit);
+    CHECK_FALSE(marchDdm<double>(view, cones, hf.layers, &q, {9.5, 9.5, 7.5}, out, {}).hit);
+}
+
+TEST_CASE("relief mapping, POM and Donnelly's map converge as their step counts grow", "[meso][march]") {
+    // On a smooth field (no thin features) the baselines' mean hit error falls with their
+    // knob; with few steps relief mapping misses thin walls, which the table reports.
+    const MesoHeightField hf = mesoField(32, 32, 8, [](int i, int j) { return 3.0 + 2.0 * std::sin(0.3 * i) * std::cos(0.25 * j); });
+    const DistanceMap dm = buildDistanceMap(hf);
+    const auto rays = viewRays(hf, 600, 29);
+    auto meanError = [&](auto march) {
+        double sum = 0;
+        int n = 0;
+        for (const auto& [o, d] : rays) {
+            if (d.z > -0.3) continue; // grazing rays need steps in proportion to their length
+            ++n;
+            const MesoHit ref = marchReference<double>(hf, o, d);
+            const MesoHit h = march(o, d);
+            sum += glm::length(h.point(o, d) - ref.point(o, d));
+        }
+        return sum / n;
+    };
+    const double relief8 = meanError([&](auto o, auto d) { return marchHeightSearch<float>(hf, o, d, 8, 2); });
+    const double relief64 = meanError([&](auto o, auto d) { return marchHeightSearch<float>(hf, o, d, 64, 8); });
+    const double pom8 = meanError([&](auto o, auto d) { return marchHeightSearch<float>(hf, o, d, 8, -1); });
+    const double pom64 = meanError([&](auto o, auto d) { return marchHeightSearch<float>(hf, o, d, 64, -1); });
+    const double dm8 = meanError([&](auto o, auto d) { return marchDistanceMap<float>(dm, o, d, 8, 0.02); });
+    const double dm64 = meanError([&](auto o, auto d) { return marchDistanceMap<float>(dm, o, d, 64, 0.02); });
+    CAPTURE(relief8, relief64, pom8, pom64, dm8, dm64);
+    CHECK(relief64 < 0.5 * relief8);
+    CHECK(pom64 < 0.5 * pom8);
+    CHECK(dm64 < dm8);
+    CHECK(relief64 < 0.05);
+    CHECK(pom64 < 0.05);
+}
