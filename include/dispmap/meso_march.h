@@ -197,4 +197,61 @@ template <class real> MesoHit marchHeightSearch(const MesoHeightField& hf, const
     return r;
 }
 
+/// Every map the marchers read, built from one height field (what `dispmap meso` builds and
+/// the GPU renderer uploads).
+struct MesoMapOptions {
+    ConeSet cones{4, 1, true, false}; ///< view and shadow cones of the DDM
+    int block = 4;                    ///< compression block size (must divide the sizes)
+    int distanceSubsamples = 4;       ///< Donnelly's map: column-model samples per texel
+};
+struct MesoMaps {
+    MesoHeightField field;
+    DistanceMap distance;
+    CompressedDdm ddm;
+    ColumnQuadrics quadrics;
+    std::size_t denseDdmBytes = 0;
+};
+inline MesoMaps buildMesoMaps(const MesoHeightField& field, const MesoMapOptions& options = {}) {
+    MesoMaps m;
+    m.field = field;
+    m.distance = buildDistanceMap(field, options.distanceSubsamples);
+    const DirectionalDistanceMap dense = buildDdm(field, options.cones);
+    m.denseDdmBytes = dense.bytes();
+    m.ddm = compressDdm(dense, options.block);
+    m.quadrics = buildColumnQuadrics(field);
+    return m;
+}
+
+/// A marcher and its knobs.
+enum class MesoMethod { DistanceMap, Ddm, Relief, Pom };
+struct MesoTechnique {
+    MesoMethod method = MesoMethod::Ddm;
+    int iterations = 64; ///< DistanceMap: the step count (eps < 0) or cap; Ddm: the cap
+    double eps = -1;     ///< DistanceMap: stop when the distance is <= eps (< 0: fixed count)
+    bool quadrics = true; ///< Ddm: quadric intersection in 0 voxels
+    int exitRule = 1;     ///< Ddm: 1 exit(v) + d, 0 the paper's t + d
+    int linear = 32;      ///< Relief / POM: linear steps
+    int binary = 6;       ///< Relief: bisections (POM ignores it)
+};
+
+/// One ray through `maps` by `technique`, in `real`.
+template <class real> MesoHit marchMeso(const MesoMaps& maps, const MesoTechnique& tq, const glm::dvec3& o, const glm::dvec3& d) {
+    switch (tq.method) {
+    case MesoMethod::DistanceMap:
+        return marchDistanceMap<real>(maps.distance, o, d, tq.iterations, tq.eps);
+    case MesoMethod::Ddm: {
+        DdmMarch opt;
+        opt.maxIterations = tq.iterations;
+        opt.quadrics = tq.quadrics;
+        opt.exitRule = tq.exitRule;
+        return marchDdm<real>(CompressedDdmView{&maps.ddm}, maps.ddm.cones, maps.field.layers, &maps.quadrics, o, d, opt);
+    }
+    case MesoMethod::Relief:
+        return marchHeightSearch<real>(maps.field, o, d, tq.linear, tq.binary);
+    case MesoMethod::Pom:
+        return marchHeightSearch<real>(maps.field, o, d, tq.linear, -1);
+    }
+    throw ArgumentError("marchMeso: unknown method");
+}
+
 } // namespace dispmap
