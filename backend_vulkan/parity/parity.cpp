@@ -2,6 +2,7 @@
 // with the exact edges and their neighbours, random and adversarial values otherwise), the
 // C++ evaluation through the same dispatch text the shader runs, and the comparison.
 #include "parity.h"
+#include "meso_parity.h"
 
 #include <algorithm>
 #include <array>
@@ -789,6 +790,8 @@ std::vector<KernelResult> run(vulkan::Context& ctx, const Options& opt) {
                 results.push_back(runPatch<double>(ctx, pd, *k, k->id == 3 ? decode : params, opt, strict));
         }
     }
+    // The mesostructure marchers (meso_parity.cpp).
+    for (KernelResult& r : runMeso(ctx, opt)) results.push_back(std::move(r));
     return results;
 }
 

@@ -32,6 +32,8 @@ struct Options {
     int strict = -1; // -1 auto, 0 off, 1 on
     /// Only kernels whose name contains this text (empty: all).
     std::string filter;
+    /// Rays per mesostructure marcher row (meso_parity.h): each is marched on the CPU too.
+    std::size_t mesoRays = 1u << 14;
 };
 
 /// One kernel at one precision.
@@ -53,7 +55,8 @@ struct KernelResult {
 /// Runs every kernel (float, and double where the device has shaderFloat64), the packed
 /// displacement lookup (PackedTiles::sampleD1 against shaders/parity_packed.comp) and the
 /// base-surface patch kernels on the PatchParams of real Far patch tables
-/// (shaders/parity_patch.comp).
+/// (shaders/parity_patch.comp), and the mesostructure marchers ("march ..." rows,
+/// meso_parity.h: shaders/meso/march.glsl against meso_march.h on the same rays).
 std::vector<KernelResult> run(vulkan::Context& context, const Options& options);
 
 /// The table: kernel, precision, inputs, bit-exact share, max / mean error, bound, GPU time per

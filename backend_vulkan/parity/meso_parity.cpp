@@ -1,0 +1,288 @@
+// The marcher parity runner: maps from one hard-case field, float ray sets (random, grazing,
+// axis-aligned and on voxel walls, inside the solid, upward shadow rays), the CPU marchers of
+// meso_march.h in float and shaders/meso/parity_meso.comp on the same rays.
+#include "meso_parity.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <iomanip>
+#include <limits>
+#include <random>
+#include <sstream>
+#include <string>
+
+#include "dispmap/meso_march.h"
+#include "dispmap/vulkan/buffer.h"
+#include "dispmap/vulkan/compute.h"
+#include "dispmap/vulkan/context.h"
+#include "dispmap/vulkan/meso_maps.h"
+#include "parity_meso_spv.h"
+
+namespace dispmap::parity {
+
+MesoHeightField mesoParityField(int width, int height, int layers) {
+    const double L = layers;
+    std::vector<float> h(static_cast<std::size_t>(width) * static_cast<std::size_t>(height));
+    for (int j = 0; j < height; ++j)
+        for (int i = 0; i < width; ++i) {
+            double v = 0.2 * L + 0.1 * L * std::sin(0.9 * i + 0.4 * j);
+            if (i >= width - 3) v += 0.4 * L; // cliff
+            if (j < 2) v = 0.0;               // floor
+            if (i == width / 2 && j == height / 2) v = L; // spike to the top
+            if (i == 2) v = L - 0.25;         // thin wall
+            h[static_cast<std::size_t>(j * width + i)] = static_cast<float>(std::clamp(v, 0.0, L));
+        }
+    return mesoHeightField(width, height, layers, std::move(h));
+}
+
+namespace {
+
+struct GpuRay {
+    glm::vec4 o, d;
+};
+static_assert(sizeof(GpuRay) == 32);
+
+struct Push {
+    vulkan::MesoGpuSize size;
+    std::int32_t method, iterations;
+    float eps;
+    std::int32_t quadrics, exitRule, linear, binary;
+    std::uint32_t count, rowStride;
+};
+static_assert(sizeof(Push) == 76);
+
+constexpr double kMesoFusedBound = 8; // parity.cpp's bound for other devices, in ULP of max(|t|, 1)
+
+class RayGen {
+  public:
+    explicit RayGen(std::uint64_t seed) : rng_(seed) {}
+    float uniform(double lo, double hi) { return static_cast<float>(std::uniform_real_distribution<double>(lo, hi)(rng_)); }
+    int integer(int lo, int hi) { return std::uniform_int_distribution<int>(lo, hi)(rng_); }
+    // A unit float direction with the given z (before normalisation) and a random azimuth.
+    glm::vec3 direction(float z) {
+        const double az = std::uniform_real_distribution<double>(0, 6.283185307179586)(rng_);
+        const double s = std::sqrt(std::max(0.0, 1.0 - double(z) * double(z)));
+        return glm::normalize(glm::vec3(static_cast<float>(s * std::cos(az)), static_cast<float>(s * std::sin(az)), z));
+    }
+
+  private:
+    std::mt19937_64 rng_;
+};
+
+float surfaceHeight(const MesoHeightField& f, float x, float y) {
+    const int i = static_cast<int>(std::floor(x)), j = static_cast<int>(std::floor(y));
+    return static_cast<float>(kern::dmBilerp(glm::dvec4(f.cell(i, j)), glm::dvec2(double(x) - double(i), double(y) - double(j))));
+}
+
+// View rays (d.z < 0): random from the top plane (over three periods, so the wrap is read),
+// grazing (|d.z| 0.01 .. 0.05), on voxel walls and grid points with axis-aligned, diagonal and
+// vertical directions, starting inside the solid, and starting in the air below the top.
+std::vector<GpuRay> viewRays(const MesoHeightField& f, std::size_t n, RayGen& g) {
+    const double W = f.width, H = f.height;
+    const float L = float(f.layers);
+    std::vector<GpuRay> rays;
+    rays.reserve(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        GpuRay r{};
+        const std::size_t kind = i % 10;
+        glm::vec3 o(g.uniform(-W, 2.0 * W), g.uniform(-H, 2.0 * H), L), d;
+        if (kind < 4) {
+            d = g.direction(-g.uniform(0.05, 1.0));
+        } else if (kind < 6) {
+            d = g.direction(-g.uniform(0.01, 0.05));
+        } else if (kind == 6) {
+            o.x = float(g.integer(-f.width, 2 * f.width));
+            if (i % 20 < 10) o.y = float(g.integer(-f.height, 2 * f.height));
+            const float z = -g.uniform(0.01, 1.0);
+            const float s = std::sqrt(1.0f - z * z);
+            switch (g.integer(0, 5)) {
+            case 0: d = glm::vec3(0, 0, -1); break;
+            case 1: d = glm::normalize(glm::vec3(s, 0, z)); break;
+            case 2: d = glm::normalize(glm::vec3(0, -s, z)); break;
+            case 3: d = glm::normalize(glm::vec3(-s, s, z)); break;
+            case 4: d = glm::normalize(glm::vec3(1, 1, -1)); break;
+            default: d = glm::normalize(glm::vec3(-s, 0, z)); break;
+            }
+        } else if (kind < 9) {
+            o.z = surfaceHeight(f, o.x, o.y) * g.uniform(0.0, 1.0); // inside the solid (or on the floor)
+            d = g.direction(-g.uniform(0.01, 1.0));
+        } else {
+            o.z = L - g.uniform(0.0, 1.0);
+            d = g.direction(-g.uniform(0.01, 1.0));
+        }
+        r.o = glm::vec4(o, 0.0f);
+        r.d = glm::vec4(d, 0.0f);
+        rays.push_back(r);
+    }
+    return rays;
+}
+
+// Shadow rays (d.z > 0) from on or just above the surface, some grazing, some from the air.
+std::vector<GpuRay> shadowRays(const MesoHeightField& f, std::size_t n, RayGen& g) {
+    const double W = f.width, H = f.height;
+    const float L = float(f.layers);
+    std::vector<GpuRay> rays;
+    rays.reserve(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        GpuRay r{};
+        glm::vec3 o(g.uniform(0.0, W), g.uniform(0.0, H), 0.0f);
+        const float h = surfaceHeight(f, o.x, o.y);
+        o.z = i % 4 == 3 ? g.uniform(h, L) : std::min(L, h + (i % 4 == 0 ? 0.0f : g.uniform(0.0, 0.05)));
+        const glm::vec3 d = g.direction(i % 3 == 0 ? g.uniform(0.01, 0.05) : g.uniform(0.05, 1.0));
+        r.o = glm::vec4(o, 0.0f);
+        r.d = glm::vec4(d, 0.0f);
+        rays.push_back(r);
+    }
+    return rays;
+}
+
+struct Row {
+    const char* name;
+    bool isotropic; // which maps: isotropic DDM or 4 x 1 + shadow cones
+    MesoTechnique tq;
+    int rays; // 0 view, 1 shadow, 2 half and half
+};
+
+MesoTechnique technique(MesoMethod m, int iterations, double eps, bool quadrics, int exitRule) {
+    MesoTechnique t;
+    t.method = m;
+    t.iterations = iterations;
+    t.eps = eps;
+    t.quadrics = quadrics;
+    t.exitRule = exitRule;
+    return t;
+}
+
+std::string vec(const glm::vec3& v) {
+    std::ostringstream s;
+    s << std::setprecision(9) << "(" << v.x << ", " << v.y << ", " << v.z << ")";
+    return s.str();
+}
+
+} // namespace
+
+std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
+    const MesoMethod DM = MesoMethod::DistanceMap, DDM = MesoMethod::Ddm;
+    MesoTechnique relief = technique(MesoMethod::Relief, 0, -1, false, 1), pom = technique(MesoMethod::Pom, 0, -1, false, 1);
+    relief.linear = 32;
+    relief.binary = 6;
+    pom.linear = 32;
+    const Row rows[] = {
+        {"march DistanceMap fixed 32", false, technique(DM, 32, -1, false, 1), 0},
+        {"march DistanceMap eps 0.01 (cap 64)", false, technique(DM, 64, 0.01, false, 1), 0},
+        {"march Ddm 4x1 quadrics exit(v)+d", false, technique(DDM, 128, -1, true, 1), 0},
+        {"march Ddm 4x1 quadrics t+d", false, technique(DDM, 128, -1, true, 0), 0},
+        {"march Ddm 4x1 no quadrics exit(v)+d", false, technique(DDM, 128, -1, false, 1), 0},
+        {"march Ddm 4x1 no quadrics t+d", false, technique(DDM, 128, -1, false, 0), 0},
+        {"march Ddm 4x1+shadow shadow rays", false, technique(DDM, 128, -1, true, 1), 1},
+        {"march Ddm 4x1+shadow shadow rays t+d", false, technique(DDM, 128, -1, false, 0), 1},
+        {"march Ddm isotropic quadrics exit(v)+d", true, technique(DDM, 128, -1, true, 1), 2},
+        {"march Ddm isotropic no quadrics t+d", true, technique(DDM, 128, -1, false, 0), 2},
+        {"march Relief 32 + 6", false, relief, 0},
+        {"march POM 32", false, pom, 0},
+    };
+    std::vector<const Row*> selected;
+    for (const Row& r : rows)
+        if (opt.filter.empty() || std::string(r.name).find(opt.filter) != std::string::npos) selected.push_back(&r);
+    if (selected.empty()) return {};
+    const bool strict = strictFor(ctx, opt);
+    const std::size_t n = std::max<std::size_t>(opt.mesoRays, 64);
+
+    // 16 x 16 x 16 voxels: every hard case, blocks of 4 (a mix of atlas and minimum blocks).
+    const MesoHeightField field = mesoParityField(16, 16, 16);
+    MesoMapOptions cones;
+    cones.cones = ConeSet{4, 1, true, false};
+    MesoMapOptions iso;
+    iso.cones = ConeSet::all();
+    bool needCones = false, needIso = false;
+    for (const Row* r : selected) (r->isotropic ? needIso : needCones) = true;
+    const MesoMaps mapsCones = needCones ? buildMesoMaps(field, cones) : MesoMaps{};
+    const MesoMaps mapsIso = needIso ? buildMesoMaps(field, iso) : MesoMaps{};
+
+    RayGen g(opt.seed ^ 0x6d65736fULL);
+    const std::vector<GpuRay> view = viewRays(field, n, g), shadow = shadowRays(field, n, g);
+    std::vector<GpuRay> mixed(view.begin(), view.begin() + static_cast<std::ptrdiff_t>(n / 2));
+    mixed.insert(mixed.end(), shadow.begin(), shadow.begin() + static_cast<std::ptrdiff_t>(n - n / 2));
+
+    vulkan::ComputePipeline pipe(ctx, std::span<const std::uint32_t>(parity_meso_spv, sizeof(parity_meso_spv) / 4), 7, sizeof(Push));
+    vulkan::Buffer rayBuf(ctx, n * sizeof(GpuRay)), outBuf(ctx, n * sizeof(glm::uvec4));
+    std::vector<KernelResult> results;
+    for (const bool isotropic : {false, true}) {
+        const MesoMaps& maps = isotropic ? mapsIso : mapsCones;
+        if (isotropic ? !needIso : !needCones) continue;
+        const vulkan::MesoBuffers gpuMaps = vulkan::uploadMesoMaps(ctx, maps);
+        for (const Row* row : selected) {
+            if (row->isotropic != isotropic) continue;
+            const std::vector<GpuRay>& rays = row->rays == 0 ? view : row->rays == 1 ? shadow : mixed;
+            rayBuf.upload(rays.data(), rays.size() * sizeof(GpuRay));
+            const auto count = static_cast<std::uint32_t>(rays.size());
+            const std::uint32_t groupsX = std::min<std::uint32_t>((count + 63) / 64, 32768);
+            const std::uint32_t groupsY = (count + groupsX * 64 - 1) / (groupsX * 64);
+            const MesoTechnique& tq = row->tq;
+            const Push push{vulkan::mesoGpuSize(maps),
+                            static_cast<std::int32_t>(tq.method),
+                            tq.iterations,
+                            static_cast<float>(tq.eps),
+                            tq.quadrics ? 1 : 0,
+                            tq.exitRule,
+                            tq.linear,
+                            tq.binary,
+                            count,
+                            groupsX * 64};
+            const auto mb = gpuMaps.all();
+            const vulkan::Buffer* bufs[] = {mb[0], mb[1], mb[2], mb[3], mb[4], &rayBuf, &outBuf};
+            KernelResult res;
+            res.kernel = row->name;
+            res.precision = "float";
+            res.contract = "march: sqrt, div";
+            res.unit = "t: ULP max(|t|,1); hit, n";  // bit-exact: hit, n and the bits of t (a zero t by value)
+            res.bound = strict ? 0.0 : kMesoFusedBound;
+            res.inputs = rays.size();
+            res.gpuSeconds = ctx.dispatch(pipe, bufs, glm::uvec3(groupsX, groupsY, 1), &push, sizeof push);
+            std::vector<glm::uvec4> gpu(rays.size());
+            outBuf.download(gpu.data(), gpu.size() * sizeof(glm::uvec4));
+            double sum = 0;
+            for (std::size_t i = 0; i < rays.size(); ++i) {
+                const glm::vec3 o(rays[i].o), d(rays[i].d);
+                const MesoHit cpu = marchMeso<float>(maps, tq, glm::dvec3(o), glm::dvec3(d));
+                const auto tc = static_cast<float>(cpu.t);
+                float tg;
+                std::memcpy(&tg, &gpu[i].y, sizeof tg);
+                const bool sameDecision = (gpu[i].x != 0) == cpu.hit && static_cast<int>(gpu[i].z) == cpu.iterations;
+                // A zero t is compared by value: a ray starting on the floor z = 0 gets
+                // dmPlaneHit = (0 - 0) / d.z = -0 in C++, and Mesa folds 0 - x into -x (+0 then),
+                // a signed-zero rewrite NoContraction does not stop. The hit point is the same.
+                const bool same = sameDecision && (std::memcmp(&tc, &tg, sizeof tc) == 0 || (tc == 0.0f && tg == 0.0f));
+                double err = 0;
+                if (!sameDecision) {
+                    err = std::numeric_limits<double>::infinity(); // a different path: no ULP measure
+                } else if (!same) {
+                    const float scale = std::max(std::abs(tc), 1.0f);
+                    const double ulp = double(std::nextafter(scale, std::numeric_limits<float>::infinity()) - scale);
+                    err = std::abs(double(tc) - double(tg)) / ulp;
+                    if (!std::isfinite(err)) err = std::numeric_limits<double>::infinity();
+                }
+                res.bitExact += same ? 1u : 0u;
+                sum += std::isfinite(err) ? err : 0.0;
+                if (err > res.maxUlp || (!same && res.worstInput.empty())) {
+                    res.maxUlp = err;
+                    std::ostringstream s;
+                    s << std::setprecision(9) << "o=" << vec(o) << " d=" << vec(d) << ": cpu hit " << cpu.hit << " t " << tc << " n "
+                      << cpu.iterations << ", gpu hit " << gpu[i].x << " t " << tg << " n " << gpu[i].z << std::hexfloat << " (" << tc << " vs " << tg << ")";
+                    res.worstInput = s.str();
+                }
+            }
+            res.meanUlp = sum / static_cast<double>(rays.size());
+            results.push_back(std::move(res));
+        }
+    }
+    // In the order of the rows above.
+    std::vector<KernelResult> ordered;
+    for (const Row* r : selected)
+        for (KernelResult& k : results)
+            if (k.kernel == r->name) ordered.push_back(std::move(k));
+    return ordered;
+}
+
+} // namespace dispmap::parity

@@ -1,0 +1,51 @@
+// Upload of the mesostructure maps for shaders/meso/march.glsl.
+#include "dispmap/vulkan/meso_maps.h"
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+namespace dispmap::vulkan {
+
+MesoGpuSize mesoGpuSize(const MesoMaps& maps) {
+    const MesoHeightField& f = maps.field;
+    const auto same = [&](int w, int h, int l) { return w == f.width && h == f.height && l == f.layers; };
+    if (f.width < 2 || f.height < 2 || f.layers < 2 || !same(maps.distance.width, maps.distance.height, maps.distance.layers) ||
+        !same(maps.ddm.width, maps.ddm.height, maps.ddm.layers) || maps.quadrics.width != f.width || maps.quadrics.height != f.height)
+        throw ArgumentError("mesostructure maps: the height field, distance map, DDM and quadrics differ in size (build them with "
+                            "buildMesoMaps)");
+    MesoGpuSize s;
+    s.width = f.width;
+    s.height = f.height;
+    s.layers = f.layers;
+    s.block = maps.ddm.block;
+    s.gx = maps.ddm.gx;
+    s.gy = maps.ddm.gy;
+    s.gz = maps.ddm.gz;
+    s.coneM = maps.ddm.cones.kernelM();
+    s.coneN = maps.ddm.cones.n;
+    s.tol = mesoRootTolerance<float>();
+    return s;
+}
+
+namespace {
+template <class T> Buffer uploadVector(Context& ctx, const std::vector<T>& v, std::size_t& bytes) {
+    const std::size_t n = v.size() * sizeof(T);
+    Buffer b(ctx, std::max<std::size_t>(n, 16));
+    if (n) b.upload(v.data(), n);
+    bytes += n;
+    return b;
+}
+} // namespace
+
+MesoBuffers uploadMesoMaps(Context& ctx, const MesoMaps& maps) {
+    (void)mesoGpuSize(maps); // validates
+    std::size_t bytes = 0;
+    MesoBuffers b{uploadVector(ctx, maps.field.h, bytes), uploadVector(ctx, maps.distance.d, bytes),
+                  uploadVector(ctx, maps.ddm.grid, bytes), uploadVector(ctx, maps.ddm.atlas, bytes),
+                  uploadVector(ctx, maps.quadrics.q, bytes), 0};
+    b.bytes = bytes;
+    return b;
+}
+
+} // namespace dispmap::vulkan

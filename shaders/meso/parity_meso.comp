@@ -1,0 +1,67 @@
+#version 450
+// CPU/GPU parity of the mesostructure marchers (shaders/meso/march.glsl against
+// include/dispmap/meso_march.h): one ray per invocation through the method the push
+// constants name; writes (hit, t bits, iterations). Runner: backend_vulkan/parity/meso_parity.cpp.
+#extension GL_GOOGLE_include_directive : require
+#define DM_MESO_SET 0
+#define DM_MESO_BINDING 0
+#include "march.glsl"
+
+layout(local_size_x = 64) in;
+layout(push_constant) uniform Push {
+    int width;
+    int height;
+    int layers;
+    int block;
+    int gx;
+    int gy;
+    int gz;
+    int coneM;
+    int coneN;
+    float tol;
+    int method;    // 0 distance map, 1 DDM, 2 relief, 3 POM (MesoMethod's order)
+    int iterations;
+    float eps;
+    int quadrics;
+    int exitRule;
+    int linear;
+    int binary;
+    uint count;
+    uint rowStride;
+} pc;
+
+struct Ray {
+    vec4 o; // xyz
+    vec4 d; // xyz, unit
+};
+layout(std430, binding = 5) readonly buffer Rays { Ray rays[]; };
+layout(std430, binding = 6) writeonly buffer Results { uvec4 results[]; };
+
+void main() {
+    uint i = gl_GlobalInvocationID.y * pc.rowStride + gl_GlobalInvocationID.x;
+    if (i >= pc.count) {
+        return;
+    }
+    DmMesoSize s;
+    s.width = pc.width;
+    s.height = pc.height;
+    s.layers = pc.layers;
+    s.block = pc.block;
+    s.gx = pc.gx;
+    s.gy = pc.gy;
+    s.gz = pc.gz;
+    s.coneM = pc.coneM;
+    s.coneN = pc.coneN;
+    s.tol = pc.tol;
+    vec3 o = rays[i].o.xyz;
+    vec3 d = rays[i].d.xyz;
+    DmMesoHit h;
+    if (pc.method == 0) {
+        h = dmMarchDistanceMap(s, o, d, pc.iterations, pc.eps);
+    } else if (pc.method == 1) {
+        h = dmMarchDdm(s, o, d, pc.iterations, pc.quadrics != 0, pc.exitRule);
+    } else {
+        h = dmMarchHeightSearch(s, o, d, pc.linear, pc.method == 3 ? -1 : pc.binary);
+    }
+    results[i] = uvec4(h.hit ? 1u : 0u, floatBitsToUint(h.t), uint(h.iterations), 0u);
+}
