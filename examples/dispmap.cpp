@@ -6,6 +6,7 @@
 //   dispmap bench [gbench args]       the benchmark table and the timings
 //   dispmap parity                    every kernel on the GPU (lavapipe by default) against C++
 //   dispmap render [SCENE] -o out.png render a scene file (or the embedded default) headless
+//   dispmap meso --height h.png -o m.dmm   mesostructure maps from a height image; --table: the table
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
@@ -20,12 +21,14 @@
 #include "dispmap/displaced_surface.h"
 #include "dispmap/file_io.h"
 #include "dispmap/height_image.h"
+#include "dispmap/meso_file.h"
 #include "dispmap/scene.h"
 #include "dispmap/tessellator.h"
 #include "dispmap/tile_builder.h"
 #include "dispmap/tile_file.h"
 #include "dispmap/vulkan/context.h"
 #include "figures.h"
+#include "meso.h"
 #include "swim.h"
 #include "parity.h"
 #include "render.h"
@@ -296,6 +299,58 @@ int runParity(const ParityArgs& a) {
     }
     return status;
 }
+struct MesoArgs {
+    std::string height, output, cones = "4x1", csv, images, data = DISPMAP_EXAMPLE_DATA;
+    int layers = 16, block = 4, size = 0;
+    double depth = -1;
+    bool shadow = false, table = false;
+};
+
+ConeSet parseCones(const std::string& s, bool shadow) {
+    if (s == "isotropic") return ConeSet::all();
+    const std::size_t x = s.find('x');
+    if (x == std::string::npos) throw ArgumentError("--cones '" + s + "': expected MxN (e.g. 4x1) or isotropic");
+    ConeSet c;
+    try {
+        c.m = std::stoi(s.substr(0, x));
+        c.n = std::stoi(s.substr(x + 1));
+    } catch (const std::exception&) {
+        throw ArgumentError("--cones '" + s + "': expected MxN (e.g. 4x1) or isotropic");
+    }
+    c.shadow = shadow;
+    c.validate();
+    return c;
+}
+
+int mesoCommand(const MesoArgs& a) {
+    if (a.table) {
+        figures::MesoTableArgs t;
+        t.dataDir = a.data;
+        t.csv = a.csv;
+        t.images = a.images;
+        figures::printMesoTable(std::cout, t);
+        return 0;
+    }
+    if (a.height.empty()) throw ArgumentError("dispmap meso: give --height IMAGE (or --table)");
+    MesoMapOptions o;
+    o.cones = parseCones(a.cones, a.shadow);
+    o.block = a.block;
+    HeightImage img = readHeightPng(a.height);
+    if (a.size > 0) img = figures::downsampleHeights(img, a.size);
+    const MesoHeightField hf = mesoHeightFieldFromImage(img, a.layers, a.depth);
+    const auto t0 = std::chrono::steady_clock::now();
+    const MesoMaps m = buildMesoMaps(hf, o);
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    std::cout << "mesostructure " << hf.width << " x " << hf.height << " x " << hf.layers << " voxels, cones " << o.cones.name()
+              << ": distance map " << m.distance.bytes() / 1024 << " KiB, DDM " << m.denseDdmBytes / 1024 << " KiB -> grid "
+              << m.ddm.grid.size() * 4 / 1024 << " KiB + atlas " << m.ddm.atlas.size() * 4 / 1024 << " KiB (ratio "
+              << m.ddm.ratio() << "), quadrics " << m.quadrics.bytes() / 1024 << " KiB, built in " << s << " s\n";
+    if (!a.output.empty()) {
+        saveMesoMaps(m, a.output);
+        std::cout << "wrote " << a.output << "\n";
+    }
+    return 0;
+}
 } // namespace
 
 int main(int argc, char** argv) {
@@ -371,6 +426,21 @@ int main(int argc, char** argv) {
     benchCmd->add_option("--render-csv", renderCsv, "also write the renderer table as CSV");
     benchCmd->add_option("--render-images", renderImages, "write the renderer table's images (PNG) to this folder");
     benchCmd->add_option("--render-frames", renderFrames, "timed frames per renderer row");
+    MesoArgs ma;
+    auto* mesoCmd = app.add_subcommand("meso", "per-pixel mesostructure: build the maps of a height image, or print the "
+                                                "accuracy-vs-time table (--table)");
+    mesoCmd->add_option("--height", ma.height, "height image (greyscale PNG, 8 or 16 bit), tiling");
+    mesoCmd->add_option("--layers", ma.layers, "voxel layers of the slab (2..256)");
+    mesoCmd->add_option("--depth", ma.depth, "height of white in voxels (default: the layers)");
+    mesoCmd->add_option("--cones", ma.cones, "direction cones MxN (M in 1,2,4,8; N in 1,2) or isotropic");
+    mesoCmd->add_flag("--shadow", ma.shadow, "also the shadow cones (upward)");
+    mesoCmd->add_option("--block", ma.block, "compression block size");
+    mesoCmd->add_option("--size", ma.size, "box-filter the image to SIZE x SIZE texels first");
+    mesoCmd->add_option("-o,--output", ma.output, "write the maps (mesostructure file)");
+    mesoCmd->add_flag("--table", ma.table, "the table: every method on the built-in scenes, iterations, error, memory, time");
+    mesoCmd->add_option("--csv", ma.csv, "with --table: also write it as CSV");
+    mesoCmd->add_option("--images", ma.images, "with --table: write the iteration pictures (PNG) to this folder");
+    mesoCmd->add_option("--data", ma.data, "folder of the built-in scenes' images");
     CLI11_PARSE(app, argc, argv);
     try {
         if (*demoCmd) return demo(quick);
@@ -379,6 +449,7 @@ int main(int argc, char** argv) {
         if (*tessCmd) return tessellateCommand(ts);
         if (*parityCmd) return runParity(pa);
         if (*renderCmd) return figures::renderCommand(ra);
+        if (*mesoCmd) return mesoCommand(ma);
         if (*benchCmd) {
             figures::printMipTable(std::cout, csv);
             std::cout << "\n";

@@ -5,7 +5,7 @@
 
 #include <random>
 
-#include "dispmap/meso_march.h"
+#include "dispmap/meso_file.h"
 #include "test_meso_support.h"
 
 using namespace dispmap;
@@ -439,4 +439,28 @@ TEST_CASE("relief mapping, POM and Donnelly's map converge as their step counts 
     CHECK(dm64 < dm8);
     CHECK(relief64 < 0.05);
     CHECK(pom64 < 0.05);
+}
+
+TEST_CASE("the mesostructure file round trip is bit for bit; damage is a clear error", "[meso][file]") {
+    const MesoMaps m = buildMesoMaps(dmtest::hardField(8, 8, 8), {ConeSet{2, 1, true, false}, 4, 2});
+    const std::string path = std::string(DISPMAP_TEST_BINARY_DIR) + "/meso_roundtrip.dmm";
+    saveMesoMaps(m, path);
+    const MesoMaps r = loadMesoMaps(path);
+    CHECK(r.field.h == m.field.h);
+    CHECK(std::memcmp(r.distance.d.data(), m.distance.d.data(), m.distance.bytes()) == 0);
+    CHECK(r.ddm.grid == m.ddm.grid);
+    CHECK(std::memcmp(r.ddm.atlas.data(), m.ddm.atlas.data(), m.ddm.atlas.size() * 4) == 0);
+    CHECK(std::memcmp(r.quadrics.q.data(), m.quadrics.q.data(), m.quadrics.bytes()) == 0);
+    CHECK(r.ddm.cones.name() == m.ddm.cones.name());
+    // Flip a byte in the middle; cut the file; not a file at all.
+    std::vector<unsigned char> bytes = detail::readFileBytes(path, "test");
+    std::vector<unsigned char> bad = bytes;
+    bad[bad.size() / 2] ^= 0x40;
+    detail::writeFileAtomically(path + ".bad", bad, "test");
+    CHECK_THROWS_WITH(loadMesoMaps(path + ".bad"), Catch::Contains("checksum"));
+    bad.assign(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(bytes.size() / 3));
+    detail::writeFileAtomically(path + ".bad", bad, "test");
+    CHECK_THROWS_AS(loadMesoMaps(path + ".bad"), FileError);
+    CHECK_THROWS_WITH(loadMesoMaps(DISPMAP_TEST_DATA "/skimage_brick.png"), Catch::Contains("bad magic"));
+    CHECK_THROWS_WITH(loadMesoMaps(path + ".missing"), Catch::Contains("cannot open"));
 }

@@ -487,10 +487,11 @@ inline DirectionalDistanceMap minFilter(const DirectionalDistanceMap& fine) {
 }
 
 /// The two-level compressed DDM (Mehra & Kumar §4, Algorithms A.1 / A.2): per cone a lookup
-/// grid of block x block x block blocks; a block holding a 0 (a surface may pass through it) is
-/// stored whole in the atlas and its grid word holds its atlas index with bit 31 set; any other
-/// block keeps only its minimum (the word holds the float's bits), which is again conservative.
-/// Every atlas voxel reads back bit for bit; the rest read their block's minimum.
+/// grid of block x block x block blocks; a block holding both 0 and non-zero values (a surface
+/// may pass through it) is stored whole in the atlas and its grid word holds its atlas index
+/// with bit 31 set; a block of zeros only (inside the solid) keeps 0, and any other block only
+/// its minimum (the word holds the float's bits), which is again conservative. Atlas voxels
+/// and zero blocks read back bit for bit; the rest read their block's minimum.
 struct CompressedDdm {
     int width = 0, height = 0, layers = 0, block = 4;
     int gx = 0, gy = 0, gz = 0; ///< grid size in blocks
@@ -549,8 +550,13 @@ inline CompressedDdm compressDdm(const DirectionalDistanceMap& m, int block = 4)
                         for (int j = 0; j < block; ++j)
                             for (int i = 0; i < block; ++i)
                                 lo = std::min(lo, m.at(cone, bx * block + i, by * block + j, bz * block + k));
+                    float hi = 0.0f;
+                    for (int k = 0; k < block; ++k)
+                        for (int j = 0; j < block; ++j)
+                            for (int i = 0; i < block; ++i)
+                                hi = std::max(hi, m.at(cone, bx * block + i, by * block + j, bz * block + k));
                     std::uint32_t word;
-                    if (lo > 0.0f) {
+                    if (lo > 0.0f || hi == 0.0f) { // free space, or all 0 (inside the solid): one value
                         std::memcpy(&word, &lo, sizeof word);
                     } else {
                         const std::size_t index = c.atlasBlocks();

@@ -1,0 +1,328 @@
+// The mesostructure table and pictures (examples/meso.h).
+#include "meso.h"
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+#include <iomanip>
+#include <map>
+#include <sstream>
+
+#include "dispmap/height_image.h"
+#include "figures.h"
+
+namespace dispmap::figures {
+
+bool MesoCamera::ray(int x, int y, int layers, glm::dvec3& o, glm::dvec3& d) const {
+    const glm::dvec3 f = glm::normalize(target - eye), r = glm::normalize(glm::cross(f, glm::dvec3(0, 0, 1)));
+    const glm::dvec3 u = glm::cross(r, f);
+    const double th = std::tan(0.5 * fovDeg * 3.14159265358979323846 / 180.0), aspect = double(width) / height;
+    const double sx = (2.0 * (x + 0.5) / width - 1.0) * th * aspect, sy = (1.0 - 2.0 * (y + 0.5) / height) * th;
+    d = glm::normalize(f + sx * r + sy * u);
+    if (eye.z <= layers) {
+        o = eye;
+        return true;
+    }
+    if (!(d.z < -1e-6)) return false;
+    o = eye + d * ((layers - eye.z) / d.z);
+    o.z = layers; // exactly on the plane
+    return true;
+}
+
+namespace {
+
+} // namespace
+
+HeightImage downsampleHeights(const HeightImage& img, int size) {
+    HeightImage small;
+    small.width = size;
+    small.height = size;
+    small.values.assign(static_cast<std::size_t>(size * size), 0.0f);
+    if (size < 2) throw ArgumentError("--size " + std::to_string(size) + ": at least 2");
+    const int fx = img.width / size, fy = img.height / size;
+    if (fx < 1 || fy < 1)
+        throw ArgumentError("--size " + std::to_string(size) + ": the image (" + std::to_string(img.width) + " x " +
+                            std::to_string(img.height) + ") is smaller");
+    for (int y = 0; y < size; ++y)
+        for (int x = 0; x < size; ++x) {
+            double sum = 0;
+            for (int b = 0; b < fy; ++b)
+                for (int a = 0; a < fx; ++a) sum += static_cast<double>(img.at(x * fx + a, y * fy + b));
+            small.values[static_cast<std::size_t>(y * size + x)] = static_cast<float>(sum / (fx * fy));
+        }
+    return small;
+}
+
+namespace {
+MesoHeightField downsample(const HeightImage& img, int size, int layers, double depth) {
+    return mesoHeightFieldFromImage(downsampleHeights(img, size), layers, depth);
+}
+
+MesoCamera tableCamera(int size, int layers) {
+    MesoCamera c;
+    c.eye = glm::dvec3(0.5 * size, -0.15 * size, layers + 0.35 * size);
+    c.target = glm::dvec3(0.5 * size, 0.55 * size, 0.0);
+    c.fovDeg = 55;
+    return c;
+}
+
+struct Stats {
+    double meanIt = 0, p99It = 0, meanErr = 0, p99Err = 0, wrong = 0, ms = 0, gpu = -1;
+    std::vector<int> iterations; // per pixel, -1 = sky
+};
+
+double percentile(std::vector<double> v, double p) {
+    if (v.empty()) return 0;
+    std::sort(v.begin(), v.end());
+    return v[std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())))];
+}
+
+} // namespace
+
+std::vector<MesoScene> mesoScenes(const std::string& dataDir) {
+    std::vector<MesoScene> s;
+    {
+        MesoScene b;
+        b.name = "bricks";
+        const int size = 128, layers = 16;
+        b.field = downsample(readHeightPng(dataDir + "/skimage_brick.png"), size, layers, 0.9 * layers);
+        b.camera = tableCamera(size, layers);
+        s.push_back(std::move(b));
+    }
+    {
+        MesoScene g;
+        g.name = "grating";
+        const int size = 64, layers = 16;
+        std::vector<float> h(static_cast<std::size_t>(size * size));
+        for (int j = 0; j < size; ++j)
+            for (int i = 0; i < size; ++i) {
+                double v = 2.0 + 1.5 * std::sin(0.2 * i) * std::sin(0.15 * j);
+                if (i % 8 == 3) v = 14.0;                        // walls one texel wide
+                if (i % 8 == 7 && j % 6 == 2) v = 11.0;          // one-texel beads
+                h[static_cast<std::size_t>(j * size + i)] = static_cast<float>(v);
+            }
+        g.field = mesoHeightField(size, size, layers, std::move(h));
+        g.camera = tableCamera(size, layers);
+        s.push_back(std::move(g));
+    }
+    return s;
+}
+
+std::vector<MesoRow> mesoRows() {
+    std::vector<MesoRow> rows;
+    auto dm = [&](int n, double eps) {
+        MesoTechnique t;
+        t.method = MesoMethod::DistanceMap;
+        t.iterations = n;
+        t.eps = eps;
+        rows.push_back({eps < 0 ? "distance map, " + std::to_string(n) + " steps" : "distance map, eps 0.02", t, "distance"});
+    };
+    dm(8, -1);
+    dm(16, -1);
+    dm(32, -1);
+    dm(64, -1);
+    dm(256, 0.02);
+    auto ddm = [&](const std::string& cones, bool quadrics, int exitRule, const std::string& extra) {
+        MesoTechnique t;
+        t.method = MesoMethod::Ddm;
+        t.iterations = 1024;
+        t.quadrics = quadrics;
+        t.exitRule = exitRule;
+        const std::string name = cones == "isotropic" ? "conservative isotropic" : "DDM " + cones;
+        rows.push_back({name + (quadrics ? " + quadric" : "") + extra, t, "ddm:" + cones});
+    };
+    ddm("isotropic", false, 1, "");
+    ddm("2x1", false, 1, "");
+    ddm("4x1", false, 1, "");
+    ddm("8x1", false, 1, "");
+    ddm("isotropic", true, 1, "");
+    ddm("2x1", true, 1, "");
+    ddm("4x1", true, 1, "");
+    ddm("8x1", true, 1, "");
+    ddm("isotropic", true, 0, " (paper's t+d)");
+    ddm("4x1", true, 0, " (paper's t+d)");
+    ddm("2x2", true, 1, "");
+    ddm("4x2", true, 1, "");
+    ddm("8x2", true, 1, "");
+    auto search = [&](MesoMethod m, int linear, int binary) {
+        MesoTechnique t;
+        t.method = m;
+        t.linear = linear;
+        t.binary = binary;
+        rows.push_back({m == MesoMethod::Relief ? "relief " + std::to_string(linear) + "+" + std::to_string(binary)
+                                                 : "POM " + std::to_string(linear),
+                        t, "heights"});
+    };
+    for (auto [l, b] : {std::pair{8, 4}, {16, 6}, {32, 6}, {64, 8}}) search(MesoMethod::Relief, l, b);
+    for (int l : {8, 16, 32, 64}) search(MesoMethod::Pom, l, 0);
+    return rows;
+}
+
+void iterationColour(int n, unsigned char rgb[3]) {
+    static const unsigned char c[5][3] = {{40, 70, 220}, {40, 170, 60}, {210, 40, 40}, {235, 210, 40}, {255, 255, 255}};
+    const int k = n < 10 ? 0 : n < 35 ? 1 : n < 60 ? 2 : n <= 100 ? 3 : 4;
+    for (int i = 0; i < 3; ++i) rgb[i] = c[k][i];
+}
+
+void printMesoTable(std::ostream& out, const MesoTableArgs& args) {
+    CsvOut csv(args.csv, "scene,method,mean_iterations,p99_iterations,mean_error_texels,p99_error_texels,wrong_share,"
+                         "bytes_uncompressed,bytes_compressed,cpu_ms,gpu_ms");
+    const std::vector<MesoRow> rows = mesoRows();
+    struct Goal {
+        double ddm4 = 0, iso = 0, dmEps = 0, ddm4Err = 0, dmEpsErr = 0;
+    };
+    std::map<std::string, Goal> goals;
+    std::ostringstream compression;
+    for (const MesoScene& scene : mesoScenes(args.dataDir)) {
+        const MesoHeightField& hf = scene.field;
+        const auto t0 = std::chrono::steady_clock::now();
+        // One map set per cone set; the distance map and quadrics are shared.
+        std::map<std::string, MesoMaps> maps;
+        for (const std::string cones : {"isotropic", "2x1", "4x1", "8x1", "2x2", "4x2", "8x2"}) {
+            MesoMapOptions o;
+            o.cones = cones == "isotropic" ? ConeSet::all() : ConeSet{cones[0] - '0', cones[2] - '0', false, false};
+            maps.emplace(cones, buildMesoMaps(hf, o));
+        }
+        const double buildS = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        // Pixels and their exact reference hits (double).
+        const MesoCamera& cam = scene.camera;
+        struct Pixel {
+            glm::dvec3 o, d;
+            MesoHit ref;
+            bool sky;
+        };
+        std::vector<Pixel> px(static_cast<std::size_t>(cam.width * cam.height));
+        for (int y = 0; y < cam.height; ++y)
+            for (int x = 0; x < cam.width; ++x) {
+                Pixel& p = px[static_cast<std::size_t>(y * cam.width + x)];
+                p.sky = !cam.ray(x, y, hf.layers, p.o, p.d);
+                if (!p.sky) p.ref = marchReference<double>(hf, p.o, p.d);
+            }
+        out << "Mesostructure scene '" << scene.name << "': " << hf.width << " x " << hf.height << " x " << hf.layers
+            << " voxels, " << cam.width << " x " << cam.height << " pixels, maps built in " << std::fixed << std::setprecision(1)
+            << buildS << " s (7 cone sets)\n";
+        out << std::left << std::setw(34) << "method" << std::right << std::setw(8) << "it mean" << std::setw(7) << "it p99"
+            << std::setw(10) << "err mean" << std::setw(9) << "err p99" << std::setw(8) << "wrong" << std::setw(11) << "memory"
+            << std::setw(11) << "compressed" << std::setw(9) << "CPU ms" << std::setw(9) << "GPU ms" << "\n";
+        std::vector<std::pair<std::string, Stats>> pictures;
+        for (const MesoRow& row : rows) {
+            const std::string conesName = row.map.rfind("ddm:", 0) == 0 ? row.map.substr(4) : "4x1";
+            const MesoMaps& m = maps.at(conesName);
+            Stats st;
+            st.iterations.assign(px.size(), -1);
+            std::vector<double> its, errs;
+            std::size_t wrong = 0, rays = 0;
+            std::vector<MesoHit> hits(px.size());
+            // CPU time: whole frames, float, one thread, repeated for at least minSeconds.
+            int frames = 0;
+            const auto c0 = std::chrono::steady_clock::now();
+            double elapsed = 0;
+            do {
+                for (std::size_t i = 0; i < px.size(); ++i)
+                    if (!px[i].sky) hits[i] = marchMeso<float>(m, row.technique, px[i].o, px[i].d);
+                ++frames;
+                elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - c0).count();
+            } while (elapsed < args.minSeconds);
+            st.ms = 1e3 * elapsed / frames;
+            for (std::size_t i = 0; i < px.size(); ++i) {
+                if (px[i].sky) continue;
+                ++rays;
+                const MesoHit& h = hits[i];
+                st.iterations[i] = h.iterations;
+                its.push_back(h.iterations);
+                if (h.hit != px[i].ref.hit) {
+                    ++wrong;
+                    continue;
+                }
+                if (!h.hit) continue;
+                const double e = glm::length(h.point(px[i].o, px[i].d) - px[i].ref.point(px[i].o, px[i].d));
+                errs.push_back(e);
+                if (e > 1.0) ++wrong; // off by more than a texel: a different feature
+            }
+            for (double v : its) st.meanIt += v / static_cast<double>(its.size());
+            for (double v : errs) st.meanErr += v / static_cast<double>(errs.size());
+            st.p99It = percentile(its, 0.99);
+            st.p99Err = percentile(errs, 0.99);
+            st.wrong = static_cast<double>(wrong) / static_cast<double>(std::max<std::size_t>(rays, 1));
+            std::size_t bytes = 0, compressed = 0;
+            if (row.map == "distance") bytes = compressed = m.distance.bytes();
+            else if (row.map == "heights") bytes = compressed = hf.h.size() * sizeof(float);
+            else {
+                bytes = m.denseDdmBytes + (row.technique.quadrics ? m.quadrics.bytes() : 0);
+                compressed = m.ddm.bytes() + (row.technique.quadrics ? m.quadrics.bytes() : 0);
+            }
+            if (args.gpuMs) st.gpu = args.gpuMs(scene, m, row.technique);
+            out << std::left << std::setw(34) << row.label << std::right << std::fixed << std::setprecision(1) << std::setw(8)
+                << st.meanIt << std::setw(7) << std::setprecision(0) << st.p99It << std::setprecision(3) << std::setw(10)
+                << st.meanErr << std::setw(9) << st.p99Err << std::setprecision(1) << std::setw(7) << 100 * st.wrong << "%"
+                << std::setw(8) << bytes / 1024 << " KiB" << std::setw(7) << compressed / 1024 << " KiB" << std::setprecision(2)
+                << std::setw(9) << st.ms;
+            if (st.gpu >= 0) out << std::setw(9) << st.gpu;
+            else out << std::setw(9) << "-";
+            out << "\n";
+            csv << scene.name << "," << row.label << "," << st.meanIt << "," << st.p99It << "," << st.meanErr << "," << st.p99Err
+                << "," << st.wrong << "," << bytes << "," << compressed << "," << st.ms << "," << st.gpu << "\n";
+            Goal& g = goals[scene.name];
+            if (row.label == "DDM 4x1 + quadric") {
+                g.ddm4 = st.meanIt;
+                g.ddm4Err = st.meanErr;
+            }
+            if (row.label == "conservative isotropic + quadric") g.iso = st.meanIt;
+            if (row.label == "distance map, eps 0.02") {
+                g.dmEps = st.meanIt;
+                g.dmEpsErr = st.meanErr;
+            }
+            for (const char* shown : {"distance map, 16 steps", "distance map, eps 0.02", "conservative isotropic + quadric",
+                                      "DDM 4x1", "DDM 4x1 + quadric", "DDM 8x1 + quadric", "relief 32+6", "POM 32"})
+                if (row.label == shown) pictures.push_back({row.label, std::move(st)});
+        }
+        // Compression (Table 3): per cone set, the uncompressed DDM against grid + atlas.
+        for (const auto& [name, m] : maps)
+            compression << std::fixed << "  " << std::left << std::setw(10) << scene.name << std::setw(11) << name << std::right << std::setw(9)
+                        << m.denseDdmBytes / 1024 << " KiB" << std::setw(8) << m.ddm.grid.size() * 4 / 1024 << " KiB"
+                        << std::setw(8) << m.ddm.atlas.size() * 4 / 1024 << " KiB" << std::setw(8) << std::setprecision(1)
+                        << m.ddm.ratio() << "x" << std::setw(9) << std::setprecision(1)
+                        << 100.0 * static_cast<double>(m.ddm.atlasBlocks()) /
+                               static_cast<double>(m.ddm.grid.size())
+                        << "%\n";
+        if (!args.images.empty()) {
+            // One picture per scene: the methods side by side, 4 per row (Figure 7's colours).
+            std::filesystem::create_directories(args.images);
+            const int cols = 4, rowsN = static_cast<int>((pictures.size() + cols - 1) / cols), gap = 4;
+            const int W = cols * cam.width + (cols - 1) * gap, H = rowsN * cam.height + (rowsN - 1) * gap;
+            std::vector<std::uint8_t> rgba(static_cast<std::size_t>(W * H) * 4, 255);
+            for (std::size_t k = 0; k < pictures.size(); ++k) {
+                const int ox = static_cast<int>(k % cols) * (cam.width + gap), oy = static_cast<int>(k / cols) * (cam.height + gap);
+                for (int y = 0; y < cam.height; ++y)
+                    for (int x = 0; x < cam.width; ++x) {
+                        const int n = pictures[k].second.iterations[static_cast<std::size_t>(y * cam.width + x)];
+                        unsigned char c[3] = {20, 20, 20};
+                        if (n >= 0) iterationColour(n, c);
+                        std::uint8_t* p = &rgba[(static_cast<std::size_t>(oy + y) * static_cast<std::size_t>(W) +
+                                                 static_cast<std::size_t>(ox + x)) *
+                                                4];
+                        p[0] = c[0];
+                        p[1] = c[1];
+                        p[2] = c[2];
+                    }
+            }
+            writeRgbaPng(args.images + "/iterations_" + scene.name + ".png", W, H, rgba.data());
+            out << "(iteration picture: " << args.images << "/iterations_" << scene.name << ".png, left to right, top to bottom:";
+            for (const auto& p : pictures) out << " " << p.first << ";";
+            out << " blue < 10, green < 35, red < 60, yellow <= 100, white > 100, grey sky)\n";
+        }
+        out << "\n";
+    }
+    out << "err: |hit - exact hit| in texels over rays both hit; wrong: a miss or false hit, or off by more than a texel.\n";
+    out << "CPU: float, one thread, ms per frame; memory: what the method reads (DDM: view cones; + quadrics 48 B/column).\n\n";
+    for (const auto& [scene, g] : goals)
+        out << "Goals on '" << scene << "': DDM 4x1 + quadric / conservative isotropic + quadric mean iterations = " << std::setprecision(2)
+            << g.ddm4 / std::max(g.iso, 1e-9) << " (same exact hits; goal <= 0.6); vs distance map eps 0.02: " << g.ddm4 / std::max(g.dmEps, 1e-9)
+            << " at error " << std::setprecision(4) << g.ddm4Err << " vs " << g.dmEpsErr << " texels\n";
+    out << "\nCompression (Table 3: uncompressed DDM vs lookup grid + atlas, blocks of 4^3):\n"
+        << "  scene     cones      uncompr.      grid    atlas   ratio  surface blocks\n"
+        << compression.str();
+    csv.commit();
+}
+
+} // namespace dispmap::figures
