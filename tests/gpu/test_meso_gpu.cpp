@@ -2,7 +2,8 @@
 // (include/dispmap/meso_march.h): bit parity of hit, t and iteration count for every method on
 // lavapipe; the MesoRenderer against the CPU marchers on its own pixel rays.
 #include <algorithm>
-#include <chrono>
+#include <cmath>
+#include <cstring>
 #include <string>
 
 #include "gpu_support.h"
@@ -25,5 +26,176 @@ TEST_CASE("every mesostructure marcher agrees bit for bit between C++ and the co
         // (measured): the GPU loop takes every decision the CPU takes.
         if (strict) CHECK(r.bitExact == r.inputs);
     }
+    dmgpu::checkNoValidationMessages();
+}
+
+// --- The renderer ---------------------------------------------------------------------------
+#include "dispmap/kernels/meso_shade.h"
+#include "dispmap/vulkan/meso_renderer.h"
+
+namespace {
+using dispmap::MesoMaps;
+using dispmap::MesoMethod;
+using dispmap::MesoTechnique;
+using dispmap::vulkan::MesoImage;
+using dispmap::vulkan::MesoRenderOptions;
+
+const MesoMaps& shadowMaps() { // 4 x 1 view cones + shadow cones, the hard-case field
+    static const MesoMaps maps = [] {
+        dispmap::MesoMapOptions o;
+        o.cones = dispmap::ConeSet{4, 1, true, false};
+        return dispmap::buildMesoMaps(dispmap::parity::mesoParityField(16, 16, 16), o);
+    }();
+    return maps;
+}
+
+MesoRenderOptions smallScene(MesoMethod method) {
+    MesoRenderOptions o;
+    o.width = 64;
+    o.height = 48;
+    o.frames = 1;
+    o.warmup = 0;
+    o.technique.method = method;
+    o.technique.iterations = method == MesoMethod::Ddm ? 128 : 32;
+    return o;
+}
+
+// The CPU marcher on the renderer's own per-pixel rays: same hit, t and iteration count.
+struct RayParity {
+    std::size_t covered = 0, same = 0;
+};
+RayParity rayParity(const MesoMaps& maps, const MesoTechnique& tq, const MesoImage& img) {
+    RayParity p;
+    for (std::size_t i = 0; i < img.covered.size(); ++i) {
+        if (!img.covered[i]) continue;
+        ++p.covered;
+        const dispmap::MesoHit cpu = dispmap::marchMeso<float>(maps, tq, glm::dvec3(img.rayOrigin[i]), glm::dvec3(img.rayDir[i]));
+        const auto t = static_cast<float>(cpu.t);
+        const bool hitSame = cpu.hit == (img.hit[i] != 0) && cpu.iterations == static_cast<int>(img.iterations[i]);
+        p.same += hitSame && (!cpu.hit || t == img.hitPoint[i].w) ? 1u : 0u;
+    }
+    return p;
+}
+} // namespace
+
+TEST_CASE("the mesostructure renderer marches every pixel as the CPU marcher does", "[meso]") {
+    auto& ctx = dmgpu::context();
+    const bool strict = dispmap::parity::strictFor(ctx, dispmap::parity::Options{});
+    for (const MesoMethod m : {MesoMethod::DistanceMap, MesoMethod::Ddm, MesoMethod::Relief, MesoMethod::Pom}) {
+        MesoRenderOptions o = smallScene(m);
+        const MesoImage img = dispmap::vulkan::renderMeso(ctx, shadowMaps(), o);
+        INFO("method " << static_cast<int>(m));
+        REQUIRE(img.rgba.size() == 64u * 48u * 4u);
+        const RayParity p = rayParity(shadowMaps(), o.technique, img);
+        CHECK(p.covered > 64u * 48u / 2); // the plane fills most of the view
+        // The rays are the shader's own (read back), so on lavapipe every decision matches.
+        if (strict) CHECK(p.same == p.covered);
+        CHECK(std::isfinite(img.gpuMs));
+    }
+    dmgpu::checkNoValidationMessages();
+}
+
+TEST_CASE("the renderer's pixel rays agree with camera rays computed on the CPU", "[meso]") {
+    auto& ctx = dmgpu::context();
+    MesoRenderOptions o = smallScene(MesoMethod::Ddm);
+    const MesoImage img = dispmap::vulkan::renderMeso(ctx, shadowMaps(), o);
+    const glm::dmat4 inv = glm::inverse(dispmap::vulkan::mesoViewProjection(o));
+    const glm::dvec3 vpu = dispmap::vulkan::mesoVoxelsPerUnit(shadowMaps(), o);
+    std::size_t both = 0, sameHit = 0, close = 0, hits = 0;
+    for (int y = 0; y < o.height; ++y)
+        for (int x = 0; x < o.width; ++x) {
+            const std::size_t i = static_cast<std::size_t>(y * o.width + x);
+            // The pixel centre's ray through the plane z = 0, in double.
+            const glm::dvec2 ndc(2.0 * (x + 0.5) / o.width - 1.0, 2.0 * (y + 0.5) / o.height - 1.0);
+            const glm::dvec4 far = inv * glm::dvec4(ndc, 1.0, 1.0);
+            const glm::dvec3 dir = glm::dvec3(far) / far.w - o.camera.eye;
+            if (!(dir.z < 0)) continue;
+            const glm::dvec3 pos = o.camera.eye + dir * (-o.camera.eye.z / dir.z);
+            if (std::abs(pos.x) > o.planeHalfSize || std::abs(pos.y) > o.planeHalfSize || !img.covered[i]) continue;
+            ++both;
+            const glm::vec3 ov = dispmap::kern::dmMesoEntry(glm::vec3(pos), glm::vec3(vpu), 16);
+            const glm::vec3 dv = dispmap::kern::dmTangentToVoxel(glm::vec3(pos - o.camera.eye), glm::vec3(vpu));
+            const dispmap::MesoHit cpu = dispmap::marchMeso<float>(shadowMaps(), o.technique, glm::dvec3(ov), glm::dvec3(dv));
+            sameHit += cpu.hit == (img.hit[i] != 0) ? 1u : 0u;
+            if (cpu.hit && img.hit[i]) {
+                ++hits;
+                const glm::dvec3 p = cpu.point(glm::dvec3(ov), glm::dvec3(dv));
+                // The shader's world position is an interpolated varying, a few float ULP (~1e-6
+                // voxels here) off the CPU's exact pixel-centre ray. Away from silhouettes (a wall
+                // or the spike's edge, where the ray flips between two surfaces) the hit moves by
+                // as much: 0.05 voxels is far above that and far below a voxel.
+                close += glm::length(p - glm::dvec3(img.hitPoint[i])) < 0.05 ? 1u : 0u;
+            }
+        }
+    INFO(both << " pixels, " << sameHit << " same hit/miss, " << close << " of " << hits << " hit points within 0.05 voxels");
+    REQUIRE(both > 1000);
+    CHECK(double(sameHit) >= 0.99 * double(both));
+    CHECK(double(close) >= 0.97 * double(hits)); // silhouettes: a few per cent of the pixels at 64 x 48
+    dmgpu::checkNoValidationMessages();
+}
+
+TEST_CASE("shadows change only the pixels whose shadow ray the CPU finds blocked", "[meso]") {
+    auto& ctx = dmgpu::context();
+    const bool strict = dispmap::parity::strictFor(ctx, dispmap::parity::Options{});
+    MesoRenderOptions o = smallScene(MesoMethod::Ddm);
+    o.lightDirection = glm::dvec3(0.8, 0.2, 0.35); // low light: long shadows behind the wall and the spike
+    const MesoImage off = dispmap::vulkan::renderMeso(ctx, shadowMaps(), o);
+    o.shadows = true;
+    const MesoImage on = dispmap::vulkan::renderMeso(ctx, shadowMaps(), o);
+    const MesoMaps& maps = shadowMaps();
+    const glm::vec3 vpu(dispmap::vulkan::mesoVoxelsPerUnit(maps, o));
+    const glm::vec3 light(glm::normalize(o.lightDirection));
+    std::size_t shadowed = 0, changed = 0, changedUnshadowed = 0, cpuSame = 0, hits = 0;
+    for (std::size_t i = 0; i < on.covered.size(); ++i) {
+        const bool diff = std::memcmp(&on.rgba[4 * i], &off.rgba[4 * i], 4) != 0;
+        changed += diff ? 1u : 0u;
+        changedUnshadowed += diff && !on.shadowed[i] ? 1u : 0u;
+        shadowed += on.shadowed[i];
+        CHECK(off.shadowed[i] == 0);
+        CHECK(on.iterations[i] == off.iterations[i]); // the view march is the same pipeline code
+        if (!on.hit[i]) continue;
+        ++hits;
+        // The shadow ray of meso.frag, on the CPU: from the hit point lifted along the normal.
+        const glm::vec3 p(on.hitPoint[i]);
+        glm::vec2 f;
+        const glm::ivec2 c = dispmap::kern::dmHeightCell(glm::vec2(p.x, p.y), f);
+        const glm::vec3 so = dispmap::kern::dmMesoShadowOrigin(p, maps.field.cell(c.x, c.y), f, static_cast<float>(o.shadowOffset));
+        const glm::vec3 sd = dispmap::kern::dmTangentToVoxel(light, vpu);
+        dispmap::DdmMarch opt;
+        opt.maxIterations = o.shadowIterations;
+        const dispmap::MesoHit s = dispmap::marchDdm<float>(dispmap::CompressedDdmView{&maps.ddm}, maps.ddm.cones, maps.field.layers,
+                                                            &maps.quadrics, glm::dvec3(so), glm::dvec3(sd), opt);
+        cpuSame += s.hit == (on.shadowed[i] != 0) && s.iterations == static_cast<int>(on.shadowIterations[i]) ? 1u : 0u;
+    }
+    INFO(hits << " hits, " << shadowed << " shadowed, " << changed << " changed, " << cpuSame << " shadow rays as on the CPU");
+    CHECK(shadowed > 20);           // the scene has shadows to find
+    CHECK(changedUnshadowed == 0);  // and they are the only change
+    CHECK(changed > 0);
+    if (strict) CHECK(cpuSame == hits);
+    dmgpu::checkNoValidationMessages();
+}
+
+TEST_CASE("the mesostructure renderer rejects bad input with clear errors", "[meso]") {
+    auto& ctx = dmgpu::context();
+    static const MesoMaps noShadow = [] {
+        dispmap::MesoMapOptions o;
+        o.cones = dispmap::ConeSet{4, 1, false, false};
+        return dispmap::buildMesoMaps(dispmap::parity::mesoParityField(8, 8, 8), o);
+    }();
+    MesoRenderOptions o = smallScene(MesoMethod::Ddm);
+    o.shadows = true;
+    CHECK_THROWS_WITH(dispmap::vulkan::MesoRenderer(ctx, noShadow, o), Catch::Contains("shadow cones"));
+    o = smallScene(MesoMethod::Ddm);
+    o.width = 0;
+    CHECK_THROWS_WITH(dispmap::vulkan::MesoRenderer(ctx, shadowMaps(), o), Catch::Contains("image size 0 x 48"));
+    o = smallScene(MesoMethod::Ddm);
+    o.camera.eye.z = -1;
+    CHECK_THROWS_WITH(dispmap::vulkan::MesoRenderer(ctx, shadowMaps(), o), Catch::Contains("above the plane"));
+    o = smallScene(MesoMethod::Relief);
+    o.technique.linear = 0;
+    CHECK_THROWS_WITH(dispmap::vulkan::MesoRenderer(ctx, shadowMaps(), o), Catch::Contains("linear step"));
+    o = smallScene(MesoMethod::Ddm);
+    o.frames = 0;
+    CHECK_THROWS_AS(dispmap::vulkan::MesoRenderer(ctx, shadowMaps(), o), dispmap::ArgumentError);
     dmgpu::checkNoValidationMessages();
 }

@@ -1,0 +1,96 @@
+#pragma once
+// dispmap::vulkan::MesoRenderer: per-pixel mesostructure ray marching in a fragment shader
+// (shaders/meso/), headless. The base mesh is the plane z = 0 (quads x quads quads, normal
+// +z, tangent +x, bitangent +y, so tangent space is world space); the mesostructure tiles it
+// every `tileSize` world units and its slab of `depth` world units lies below the plane. Each
+// pixel's view ray enters voxel space by Donnelly's normalisation (dmTangentToVoxel) and is
+// marched by the chosen MesoTechnique; the technique and its knobs are specialisation
+// constants, so only the chosen marcher is compiled into the pipeline. Shading: Lambert with
+// the normal of the bilinear height field at the hit and a checker albedo; a shadow ray
+// through the DDM's shadow cones only when `shadows` is on.
+//
+// The marchers are those of include/dispmap/meso_march.h, bit for bit on lavapipe: the
+// per-pixel rays come back (rayOrigin, rayDir), and marchMeso<float> on them gives the same
+// hits and iteration counts (tests/gpu/test_meso_gpu.cpp).
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "dispmap/meso_march.h"
+#include "dispmap/vulkan/context.h"
+
+namespace dispmap::vulkan {
+
+struct MesoCamera {
+    glm::dvec3 eye{1.2, -1.6, 1.1};
+    glm::dvec3 target{0.0, 0.0, 0.0};
+    glm::dvec3 up{0.0, 0.0, 1.0};
+    double fovYDeg = 45.0;
+};
+
+struct MesoRenderOptions {
+    int width = 256, height = 192;
+    MesoCamera camera;
+    glm::dvec3 lightDirection{0.5, 0.3, 0.8}; ///< towards the light (normalised here); z > 0 with shadows
+    MesoTechnique technique;
+    bool shadows = false;      ///< shadow rays through the DDM (needs maps built with ConeSet::shadow or isotropic)
+    int shadowIterations = 64; ///< cap of the shadow march
+    double shadowOffset = 0.05; ///< voxels along the height field's normal where shadow rays start
+    double tileSize = 0.5;     ///< world units of one tile of the mesostructure (x and y)
+    double depth = 0.08;       ///< world units of the slab (z)
+    double planeHalfSize = 1.0; ///< the plane spans [-h, h]^2
+    int quads = 4;             ///< quads per side of the plane
+    double ambient = 0.2;
+    glm::dvec3 background{0.12, 0.13, 0.16};
+    double checkerVoxels = 8;  ///< checker period of the albedo, voxels
+    int frames = 3;            ///< timed frames (the GPU time is their median)
+    int warmup = 1;            ///< untimed first frames (lavapipe compiles shaders at first use)
+};
+
+struct MesoImage {
+    int width = 0, height = 0;
+    std::vector<std::uint8_t> rgba;          ///< 8-bit colour, row 0 at the top
+    std::vector<std::uint32_t> iterations;   ///< view-ray iterations per pixel (0: background)
+    std::vector<std::uint32_t> shadowIterations;
+    std::vector<std::uint8_t> covered;       ///< 1 where the plane covers the pixel
+    std::vector<std::uint8_t> hit;           ///< 1 where the view ray hit (0: missed, or background)
+    std::vector<std::uint8_t> shadowed;      ///< 1 where the shadow ray hit the mesostructure
+    std::vector<glm::vec4> hitPoint;         ///< voxel-space hit point and t
+    std::vector<glm::vec3> rayOrigin, rayDir; ///< the pixel's view ray in voxel space (where covered)
+    double gpuMs = 0;                        ///< median GPU time of the timed frames (timestamps)
+    int frames = 0;
+};
+
+/// The voxels per world unit of the options' mapping for `maps`: (W / tileSize, H / tileSize, L / depth).
+glm::dvec3 mesoVoxelsPerUnit(const MesoMaps& maps, const MesoRenderOptions& options);
+
+class MesoRenderer {
+  public:
+    /// Uploads the maps and builds the pipeline of the options' technique. Keeps a reference
+    /// to context (not to maps). ArgumentError for an image size out of [1, 4096], frames < 1,
+    /// warm-up < 0, a bad technique (iterations or linear steps < 1), a camera at or below the
+    /// plane, non-positive tile size / depth / plane, shadows without shadow cones or with a
+    /// light at or below the horizon.
+    MesoRenderer(Context& context, const MesoMaps& maps, const MesoRenderOptions& options);
+    ~MesoRenderer();
+    MesoRenderer(const MesoRenderer&) = delete;
+    MesoRenderer& operator=(const MesoRenderer&) = delete;
+
+    /// Renders warmup + frames frames and reads back the last.
+    MesoImage render();
+
+  private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+/// One technique in one call (what the examples' benchmark and scenes use): {gpuMs, image,
+/// iterations, ...} in a MesoImage.
+MesoImage renderMeso(Context& context, const MesoMaps& maps, const MesoRenderOptions& options);
+
+/// The world-to-clip matrix of the options' camera (Vulkan clip space, y down, depth 0..1).
+glm::dmat4 mesoViewProjection(const MesoRenderOptions& options);
+
+} // namespace dispmap::vulkan

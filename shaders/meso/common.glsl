@@ -1,0 +1,14 @@
+// The MesoRenderer's parameters (backend_vulkan/src/meso_renderer.cpp, GpuMesoParams), read by
+// plane.vert and meso.frag. The maps are bindings 0..4 (march.glsl).
+layout(std430, set = 0, binding = 5) readonly buffer MesoParams {
+    mat4 viewProj;
+    vec4 eye;           // world
+    vec4 light;         // unit direction towards the light (world = tangent space), w: ambient
+    vec4 voxelsPerUnit; // (W / tile, H / tile, L / depth, checker period in voxels)
+    vec4 plane;         // (half size of the plane in world units, quads per side, 0, 0)
+    vec4 background;
+    ivec4 dims0;        // width, height, layers, block
+    ivec4 dims1;        // gx, gy, gz, coneM
+    ivec4 dims2;        // coneN, 0, 0, 0
+    vec4 tol;           // x: mesoRootTolerance<float>(), y: shadow-ray offset (voxels)
+} params;

@@ -1,0 +1,81 @@
+#version 450
+// The MesoRenderer's fragment shader: the pixel's view ray into voxel space (Donnelly's
+// normalisation, dmTangentToVoxel), the marcher the specialisation constants choose (only
+// that one survives specialisation), the shading with the height field's normal and, only
+// when asked for, a shadow ray through the DDM's shadow cones. Every formula is a kernel
+// (kernels/meso.h, kernels/meso_shade.h); march.glsl holds the loops.
+#extension GL_GOOGLE_include_directive : require
+#define DM_MESO_SET 0
+#define DM_MESO_BINDING 0
+#include "march.glsl"
+#include "meso_shade.glsl"
+#include "common.glsl"
+
+layout(constant_id = 0) const int kMethod = 1;     // MesoMethod: 0 distance map, 1 DDM, 2 relief, 3 POM
+layout(constant_id = 1) const int kIterations = 64;
+layout(constant_id = 2) const float kEps = -1.0;
+layout(constant_id = 3) const bool kQuadrics = true;
+layout(constant_id = 4) const int kExitRule = 1;
+layout(constant_id = 5) const int kLinear = 32;
+layout(constant_id = 6) const int kBinary = 6;
+layout(constant_id = 7) const bool kShadows = false;
+layout(constant_id = 8) const int kShadowIterations = 64;
+
+layout(location = 0) in vec3 worldPos;
+layout(location = 0) out vec4 outColor;
+layout(location = 1) out vec4 outHit;    // voxel-space hit point, t (w = -1: the ray missed)
+layout(location = 2) out vec4 outOrigin; // the view ray in voxel space: o, 1
+layout(location = 3) out vec4 outDir;    // d, 0
+layout(location = 4) out uvec4 outCounts; // view iterations, shadow iterations, shadowed, hit
+
+void main() {
+    DmMesoSize s;
+    s.width = params.dims0.x;
+    s.height = params.dims0.y;
+    s.layers = params.dims0.z;
+    s.block = params.dims0.w;
+    s.gx = params.dims1.x;
+    s.gy = params.dims1.y;
+    s.gz = params.dims1.z;
+    s.coneM = params.dims1.w;
+    s.coneN = params.dims2.x;
+    s.tol = params.tol.x;
+    vec3 vpu = params.voxelsPerUnit.xyz;
+    vec3 o = dmMesoEntry(worldPos, vpu, s.layers);
+    vec3 d = dmTangentToVoxel(worldPos - params.eye.xyz, vpu);
+    DmMesoHit h;
+    if (kMethod == 0) {
+        h = dmMarchDistanceMap(s, o, d, kIterations, kEps);
+    } else if (kMethod == 1) {
+        h = dmMarchDdm(s, o, d, kIterations, kQuadrics, kExitRule);
+    } else {
+        h = dmMarchHeightSearch(s, o, d, kLinear, kMethod == 3 ? -1 : kBinary);
+    }
+    outOrigin = vec4(o, 1.0);
+    outDir = vec4(d, 0.0);
+    if (!h.hit) {
+        outColor = params.background;
+        outHit = vec4(0.0, 0.0, 0.0, -1.0);
+        outCounts = uvec4(uint(h.iterations), 0u, 0u, 0u);
+        return;
+    }
+    vec3 p = o + d * h.t;
+    vec2 f;
+    ivec2 c = dmHeightCell(vec2(p.x, p.y), f);
+    vec4 cell = dmMesoCell(s, c.x, c.y);
+    vec3 n = dmMesoWorldNormal(cell, f, vpu);
+    float lit = 1.0;
+    uint shadowIterations = 0u;
+    if (kShadows) {
+        vec3 so = dmMesoShadowOrigin(p, cell, f, params.tol.y);
+        vec3 sd = dmTangentToVoxel(params.light.xyz, vpu);
+        DmMesoHit sh = dmMarchDdm(s, so, sd, kShadowIterations, true, 1);
+        lit = sh.hit ? 0.0 : 1.0;
+        shadowIterations = uint(sh.iterations);
+    }
+    float albedo = dmMesoChecker(vec2(p.x, p.y), params.voxelsPerUnit.w);
+    float v = dmMesoShade(albedo, n, params.light.xyz, params.light.w, lit);
+    outColor = vec4(v * 0.95, v * 0.85, v * 0.7, 1.0);
+    outHit = vec4(p, h.t);
+    outCounts = uvec4(uint(h.iterations), shadowIterations, lit == 0.0 ? 1u : 0u, 1u);
+}
