@@ -49,7 +49,12 @@ int demo(bool quick) {
     figures::printSwimFigure(std::cout, "");
     std::cout << "\n";
     figures::printRenderTable(std::cout, {"dispmap-demo", "", quick ? 2 : 3, !quick, ""});
-    std::cout << "(images in dispmap-demo/)\n";
+    std::cout << "(images in dispmap-demo/)\n\n";
+    figures::MesoTableArgs meso;
+    meso.dataDir = DISPMAP_EXAMPLE_DATA;
+    meso.images = "dispmap-demo";
+    meso.minSeconds = quick ? 0.02 : 0.15;
+    figures::printMesoTable(std::cout, meso);
     std::cout << "\nTimings (Google Benchmark" << (quick ? ", short runs" : "") << "):\n" << std::flush;
     std::vector<std::string> flags;
     if (quick) flags.push_back("--benchmark_min_time=0.05");

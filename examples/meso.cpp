@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "dispmap/height_image.h"
+#include "dispmap/meso_solid.h"
 #include "figures.h"
 
 namespace dispmap::figures {
@@ -75,6 +76,111 @@ double percentile(std::vector<double> v, double p) {
     if (v.empty()) return 0;
     std::sort(v.begin(), v.end());
     return v[std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())))];
+}
+
+struct Pixel {
+    glm::dvec3 o, d;
+    MesoHit ref;
+    bool sky;
+};
+
+// Pixel rays of the camera with their exact reference hits.
+std::vector<Pixel> pixels(const MesoCamera& cam, int layers, const std::function<MesoHit(const glm::dvec3&, const glm::dvec3&)>& reference) {
+    std::vector<Pixel> px(static_cast<std::size_t>(cam.width * cam.height));
+    for (int y = 0; y < cam.height; ++y)
+        for (int x = 0; x < cam.width; ++x) {
+            Pixel& p = px[static_cast<std::size_t>(y * cam.width + x)];
+            p.sky = !cam.ray(x, y, layers, p.o, p.d);
+            if (!p.sky) p.ref = reference(p.o, p.d);
+        }
+    return px;
+}
+
+// One row: every pixel through `march`, timed over whole frames (one thread, repeated for at
+// least minSeconds), iterations and errors against the reference.
+Stats measure(const std::vector<Pixel>& px, const std::function<MesoHit(const glm::dvec3&, const glm::dvec3&)>& march, double minSeconds) {
+    Stats st;
+    st.iterations.assign(px.size(), -1);
+    std::vector<double> its, errs;
+    std::size_t wrong = 0, rays = 0;
+    std::vector<MesoHit> hits(px.size());
+    int frames = 0;
+    const auto c0 = std::chrono::steady_clock::now();
+    double elapsed = 0;
+    do {
+        for (std::size_t i = 0; i < px.size(); ++i)
+            if (!px[i].sky) hits[i] = march(px[i].o, px[i].d);
+        ++frames;
+        elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - c0).count();
+    } while (elapsed < minSeconds);
+    st.ms = 1e3 * elapsed / frames;
+    for (std::size_t i = 0; i < px.size(); ++i) {
+        if (px[i].sky) continue;
+        ++rays;
+        const MesoHit& h = hits[i];
+        st.iterations[i] = h.iterations;
+        its.push_back(h.iterations);
+        if (h.hit != px[i].ref.hit) {
+            ++wrong;
+            continue;
+        }
+        if (!h.hit) continue;
+        const double e = glm::length(h.point(px[i].o, px[i].d) - px[i].ref.point(px[i].o, px[i].d));
+        errs.push_back(e);
+        if (e > 1.0) ++wrong; // off by more than a texel: a different feature
+    }
+    for (double v : its) st.meanIt += v / static_cast<double>(its.size());
+    for (double v : errs) st.meanErr += v / static_cast<double>(errs.size());
+    st.p99It = percentile(its, 0.99);
+    st.p99Err = percentile(errs, 0.99);
+    st.wrong = static_cast<double>(wrong) / static_cast<double>(std::max<std::size_t>(rays, 1));
+    return st;
+}
+
+void printHeader(std::ostream& out) {
+    out << std::left << std::setw(34) << "method" << std::right << std::setw(8) << "it mean" << std::setw(7) << "it p99" << std::setw(10)
+        << "err mean" << std::setw(9) << "err p99" << std::setw(8) << "wrong" << std::setw(11) << "memory" << std::setw(11)
+        << "compressed" << std::setw(9) << "CPU ms" << std::setw(9) << "GPU ms" << "\n";
+}
+
+void printRow(std::ostream& out, CsvOut& csv, const std::string& scene, const std::string& label, const Stats& st, std::size_t bytes,
+              std::size_t compressed) {
+    out << std::left << std::setw(34) << label << std::right << std::fixed << std::setprecision(1) << std::setw(8) << st.meanIt
+        << std::setw(7) << std::setprecision(0) << st.p99It << std::setprecision(3) << std::setw(10) << st.meanErr << std::setw(9)
+        << st.p99Err << std::setprecision(1) << std::setw(7) << 100 * st.wrong << "%" << std::setw(8) << bytes / 1024 << " KiB"
+        << std::setw(7) << compressed / 1024 << " KiB" << std::setprecision(2) << std::setw(9) << st.ms;
+    if (st.gpu >= 0) out << std::setw(9) << st.gpu;
+    else out << std::setw(9) << "-";
+    out << "\n";
+    csv << scene << "," << label << "," << st.meanIt << "," << st.p99It << "," << st.meanErr << "," << st.p99Err << "," << st.wrong << ","
+        << bytes << "," << compressed << "," << st.ms << "," << st.gpu << "\n";
+}
+
+void writePicture(const std::string& path, const MesoCamera& cam, const std::vector<std::pair<std::string, Stats>>& pictures) {
+    // The methods side by side, 4 per row (Figure 7's colours).
+    const int cols = 4, rowsN = static_cast<int>((pictures.size() + cols - 1) / cols), gap = 4;
+    const int W = cols * cam.width + (cols - 1) * gap, H = rowsN * cam.height + (rowsN - 1) * gap;
+    std::vector<std::uint8_t> rgba(static_cast<std::size_t>(W * H) * 4, 255);
+    for (std::size_t k = 0; k < pictures.size(); ++k) {
+        const int ox = static_cast<int>(k % cols) * (cam.width + gap), oy = static_cast<int>(k / cols) * (cam.height + gap);
+        for (int y = 0; y < cam.height; ++y)
+            for (int x = 0; x < cam.width; ++x) {
+                const int n = pictures[k].second.iterations[static_cast<std::size_t>(y * cam.width + x)];
+                unsigned char c[3] = {20, 20, 20};
+                if (n >= 0) iterationColour(n, c);
+                std::uint8_t* p = &rgba[(static_cast<std::size_t>(oy + y) * static_cast<std::size_t>(W) + static_cast<std::size_t>(ox + x)) * 4];
+                p[0] = c[0];
+                p[1] = c[1];
+                p[2] = c[2];
+            }
+    }
+    writeRgbaPng(path, W, H, rgba.data());
+}
+
+std::ostream& pictureNote(std::ostream& out, const std::string& path, const std::vector<std::pair<std::string, Stats>>& pictures) {
+    out << "(iteration picture: " << path << ", left to right, top to bottom:";
+    for (const auto& p : pictures) out << " " << p.first << ";";
+    return out << " blue < 10, green < 35, red < 60, yellow <= 100, white > 100, grey sky)\n";
 }
 
 } // namespace
@@ -184,66 +290,18 @@ void printMesoTable(std::ostream& out, const MesoTableArgs& args) {
             maps.emplace(cones, buildMesoMaps(hf, o));
         }
         const double buildS = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        // Pixels and their exact reference hits (double).
         const MesoCamera& cam = scene.camera;
-        struct Pixel {
-            glm::dvec3 o, d;
-            MesoHit ref;
-            bool sky;
-        };
-        std::vector<Pixel> px(static_cast<std::size_t>(cam.width * cam.height));
-        for (int y = 0; y < cam.height; ++y)
-            for (int x = 0; x < cam.width; ++x) {
-                Pixel& p = px[static_cast<std::size_t>(y * cam.width + x)];
-                p.sky = !cam.ray(x, y, hf.layers, p.o, p.d);
-                if (!p.sky) p.ref = marchReference<double>(hf, p.o, p.d);
-            }
+        const std::vector<Pixel> px = pixels(cam, hf.layers, [&](const glm::dvec3& o, const glm::dvec3& d) { return marchReference<double>(hf, o, d); });
         out << "Mesostructure scene '" << scene.name << "': " << hf.width << " x " << hf.height << " x " << hf.layers
             << " voxels, " << cam.width << " x " << cam.height << " pixels, maps built in " << std::fixed << std::setprecision(1)
             << buildS << " s (7 cone sets)\n";
-        out << std::left << std::setw(34) << "method" << std::right << std::setw(8) << "it mean" << std::setw(7) << "it p99"
-            << std::setw(10) << "err mean" << std::setw(9) << "err p99" << std::setw(8) << "wrong" << std::setw(11) << "memory"
-            << std::setw(11) << "compressed" << std::setw(9) << "CPU ms" << std::setw(9) << "GPU ms" << "\n";
+        printHeader(out);
         std::vector<std::pair<std::string, Stats>> pictures;
         for (const MesoRow& row : rows) {
             const std::string conesName = row.map.rfind("ddm:", 0) == 0 ? row.map.substr(4) : "4x1";
             const MesoMaps& m = maps.at(conesName);
-            Stats st;
-            st.iterations.assign(px.size(), -1);
-            std::vector<double> its, errs;
-            std::size_t wrong = 0, rays = 0;
-            std::vector<MesoHit> hits(px.size());
-            // CPU time: whole frames, float, one thread, repeated for at least minSeconds.
-            int frames = 0;
-            const auto c0 = std::chrono::steady_clock::now();
-            double elapsed = 0;
-            do {
-                for (std::size_t i = 0; i < px.size(); ++i)
-                    if (!px[i].sky) hits[i] = marchMeso<float>(m, row.technique, px[i].o, px[i].d);
-                ++frames;
-                elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - c0).count();
-            } while (elapsed < args.minSeconds);
-            st.ms = 1e3 * elapsed / frames;
-            for (std::size_t i = 0; i < px.size(); ++i) {
-                if (px[i].sky) continue;
-                ++rays;
-                const MesoHit& h = hits[i];
-                st.iterations[i] = h.iterations;
-                its.push_back(h.iterations);
-                if (h.hit != px[i].ref.hit) {
-                    ++wrong;
-                    continue;
-                }
-                if (!h.hit) continue;
-                const double e = glm::length(h.point(px[i].o, px[i].d) - px[i].ref.point(px[i].o, px[i].d));
-                errs.push_back(e);
-                if (e > 1.0) ++wrong; // off by more than a texel: a different feature
-            }
-            for (double v : its) st.meanIt += v / static_cast<double>(its.size());
-            for (double v : errs) st.meanErr += v / static_cast<double>(errs.size());
-            st.p99It = percentile(its, 0.99);
-            st.p99Err = percentile(errs, 0.99);
-            st.wrong = static_cast<double>(wrong) / static_cast<double>(std::max<std::size_t>(rays, 1));
+            Stats st = measure(
+                px, [&](const glm::dvec3& o, const glm::dvec3& d) { return marchMeso<float>(m, row.technique, o, d); }, args.minSeconds);
             std::size_t bytes = 0, compressed = 0;
             if (row.map == "distance") bytes = compressed = m.distance.bytes();
             else if (row.map == "heights") bytes = compressed = hf.h.size() * sizeof(float);
@@ -252,16 +310,7 @@ void printMesoTable(std::ostream& out, const MesoTableArgs& args) {
                 compressed = m.ddm.bytes() + (row.technique.quadrics ? m.quadrics.bytes() : 0);
             }
             if (args.gpuMs) st.gpu = args.gpuMs(scene, m, row.technique);
-            out << std::left << std::setw(34) << row.label << std::right << std::fixed << std::setprecision(1) << std::setw(8)
-                << st.meanIt << std::setw(7) << std::setprecision(0) << st.p99It << std::setprecision(3) << std::setw(10)
-                << st.meanErr << std::setw(9) << st.p99Err << std::setprecision(1) << std::setw(7) << 100 * st.wrong << "%"
-                << std::setw(8) << bytes / 1024 << " KiB" << std::setw(7) << compressed / 1024 << " KiB" << std::setprecision(2)
-                << std::setw(9) << st.ms;
-            if (st.gpu >= 0) out << std::setw(9) << st.gpu;
-            else out << std::setw(9) << "-";
-            out << "\n";
-            csv << scene.name << "," << row.label << "," << st.meanIt << "," << st.p99It << "," << st.meanErr << "," << st.p99Err
-                << "," << st.wrong << "," << bytes << "," << compressed << "," << st.ms << "," << st.gpu << "\n";
+            printRow(out, csv, scene.name, row.label, st, bytes, compressed);
             Goal& g = goals[scene.name];
             if (row.label == "DDM 4x1 + quadric") {
                 g.ddm4 = st.meanIt;
@@ -286,32 +335,71 @@ void printMesoTable(std::ostream& out, const MesoTableArgs& args) {
                                static_cast<double>(m.ddm.grid.size())
                         << "%\n";
         if (!args.images.empty()) {
-            // One picture per scene: the methods side by side, 4 per row (Figure 7's colours).
             std::filesystem::create_directories(args.images);
-            const int cols = 4, rowsN = static_cast<int>((pictures.size() + cols - 1) / cols), gap = 4;
-            const int W = cols * cam.width + (cols - 1) * gap, H = rowsN * cam.height + (rowsN - 1) * gap;
-            std::vector<std::uint8_t> rgba(static_cast<std::size_t>(W * H) * 4, 255);
-            for (std::size_t k = 0; k < pictures.size(); ++k) {
-                const int ox = static_cast<int>(k % cols) * (cam.width + gap), oy = static_cast<int>(k / cols) * (cam.height + gap);
-                for (int y = 0; y < cam.height; ++y)
-                    for (int x = 0; x < cam.width; ++x) {
-                        const int n = pictures[k].second.iterations[static_cast<std::size_t>(y * cam.width + x)];
-                        unsigned char c[3] = {20, 20, 20};
-                        if (n >= 0) iterationColour(n, c);
-                        std::uint8_t* p = &rgba[(static_cast<std::size_t>(oy + y) * static_cast<std::size_t>(W) +
-                                                 static_cast<std::size_t>(ox + x)) *
-                                                4];
-                        p[0] = c[0];
-                        p[1] = c[1];
-                        p[2] = c[2];
-                    }
-            }
-            writeRgbaPng(args.images + "/iterations_" + scene.name + ".png", W, H, rgba.data());
-            out << "(iteration picture: " << args.images << "/iterations_" << scene.name << ".png, left to right, top to bottom:";
-            for (const auto& p : pictures) out << " " << p.first << ";";
-            out << " blue < 10, green < 35, red < 60, yellow <= 100, white > 100, grey sky)\n";
+            const std::string path = args.images + "/iterations_" + scene.name + ".png";
+            writePicture(path, cam, pictures);
+            pictureNote(out, path, pictures);
         }
         out << "\n";
+    }
+    {
+        // A non-height-field scene: 16 beads floating over the floor (overhangs), from a mesh.
+        std::vector<glm::dvec3> v;
+        std::vector<std::array<int, 3>> t;
+        for (int by = 0; by < 4; ++by)
+            for (int bx = 0; bx < 4; ++bx) appendUvSphere({8.0 + 16 * bx, 8.0 + 16 * by, 7.0 + 2.5 * ((bx + by) % 2)}, 5.0, 12, v, t);
+        v.push_back({0, 0, 0}); // the tile: [0, 64]^2, the floor at z = 0
+        v.push_back({64, 64, 0});
+        const auto t0 = std::chrono::steady_clock::now();
+        const MesoSolid solid = mesoSolidFromMesh(v, t, 64, 64, 16, 2);
+        const DistanceMap dm = buildSolidDistanceMap(solid);
+        std::map<std::string, std::pair<DirectionalDistanceMap, CompressedDdm>> ddms;
+        for (const ConeSet cones : {ConeSet::all(), ConeSet{4, 1, false, false}, ConeSet{8, 1, false, false}}) {
+            DirectionalDistanceMap dense = buildSolidDdm(solid, cones);
+            CompressedDdm c = compressDdm(dense, 4);
+            ddms.emplace(cones.name(), std::make_pair(std::move(dense), std::move(c)));
+        }
+        const double buildS = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        const MesoCamera cam = tableCamera(64, 16);
+        const std::vector<Pixel> px = pixels(cam, 16, [&](const glm::dvec3& o, const glm::dvec3& d) { return marchSolidReference(solid, o, d); });
+        out << "Non-height-field scene 'beads' (a mesh of " << t.size() << " triangles, 16 beads over the floor): 64 x 64 x 16 voxels, "
+            << std::fixed << std::setprecision(1) << 100 * solid.solidShare() << " % solid sub-voxels, maps built in " << buildS << " s\n";
+        printHeader(out);
+        std::vector<std::pair<std::string, Stats>> pictures;
+        for (int n : {16, 64}) {
+            Stats st = measure(px, [&](const glm::dvec3& o, const glm::dvec3& d) { return marchDistanceMap<float>(dm, o, d, n, -1); }, args.minSeconds);
+            printRow(out, csv, "beads", "distance map, " + std::to_string(n) + " steps", st, dm.bytes(), dm.bytes());
+            if (n == 16) pictures.push_back({"distance map, 16 steps", std::move(st)});
+        }
+        {
+            Stats st = measure(px, [&](const glm::dvec3& o, const glm::dvec3& d) { return marchDistanceMap<float>(dm, o, d, 256, 0.02); }, args.minSeconds);
+            printRow(out, csv, "beads", "distance map, eps 0.02", st, dm.bytes(), dm.bytes());
+            pictures.push_back({"distance map, eps 0.02", std::move(st)});
+        }
+        for (const auto& [name, maps] : ddms) {
+            const CompressedDdm& c = maps.second;
+            const std::size_t triBytes = t.size() * 36; // 3 float3 per triangle, as a renderer would store them
+            for (int rule : {1, 0}) {
+                Stats st = measure(
+                    px, [&](const glm::dvec3& o, const glm::dvec3& d) { return marchDdmSolid(CompressedDdmView{&c}, c.cones, solid, o, d, 1024, rule); },
+                    args.minSeconds);
+                const std::string label = (name == "isotropic" ? "conservative isotropic" : "DDM " + name.substr(0, 3)) + " + triangles" +
+                                          (rule == 0 ? " (paper's t+d)" : "");
+                printRow(out, csv, "beads", label, st, maps.first.bytes() + triBytes, c.bytes() + triBytes);
+                if (rule == 1) pictures.push_back({label, std::move(st)});
+            }
+            compression << std::fixed << "  " << std::left << std::setw(10) << "beads" << std::setw(11) << name << std::right << std::setw(9)
+                        << maps.first.bytes() / 1024 << " KiB" << std::setw(8) << c.grid.size() * 4 / 1024 << " KiB" << std::setw(8)
+                        << c.atlas.size() * 4 / 1024 << " KiB" << std::setw(8) << std::setprecision(1) << c.ratio() << "x" << std::setw(9)
+                        << 100.0 * static_cast<double>(c.atlasBlocks()) / static_cast<double>(c.grid.size()) << "%\n";
+        }
+        if (!args.images.empty()) {
+            std::filesystem::create_directories(args.images);
+            const std::string path = args.images + "/iterations_beads.png";
+            writePicture(path, cam, pictures);
+            pictureNote(out, path, pictures);
+        }
+        out << "(beads: CPU in double, exact triangle tests where the DDM is 0; the GPU renderer draws height fields)\n\n";
     }
     out << "err: |hit - exact hit| in texels over rays both hit; wrong: a miss or false hit, or off by more than a texel.\n";
     out << "CPU: float, one thread, ms per frame; memory: what the method reads (DDM: view cones; + quadrics 48 B/column).\n\n";

@@ -33,3 +33,4 @@ inline dispmap::MesoHeightField hardField(int width, int height, int layers) {
 }
 
 } // namespace dmtest
+
