@@ -22,6 +22,7 @@
 #include "dispmap/file_io.h"
 #include "dispmap/height_image.h"
 #include "dispmap/meso_file.h"
+#include "dispmap/meso_scene.h"
 #include "dispmap/meso_solid.h"
 #include "dispmap/scene.h"
 #include "dispmap/tessellator.h"
@@ -358,7 +359,7 @@ int mesoCommand(const MesoArgs& a) {
     o.cones = parseCones(a.cones, a.shadow);
     o.block = a.block;
     HeightImage img = readHeightPng(a.height);
-    if (a.size > 0) img = figures::downsampleHeights(img, a.size);
+    if (a.size > 0) img = downsampleHeightImage(img, a.size);
     const MesoHeightField hf = mesoHeightFieldFromImage(img, a.layers, a.depth);
     const auto t0 = std::chrono::steady_clock::now();
     const MesoMaps m = buildMesoMaps(hf, o);

@@ -6,10 +6,13 @@
 #include <filesystem>
 #include <iomanip>
 #include <map>
+#include <memory>
 #include <sstream>
 
 #include "dispmap/height_image.h"
+#include "dispmap/meso_scene.h"
 #include "dispmap/meso_solid.h"
+#include "dispmap/vulkan/meso_renderer.h"
 #include "figures.h"
 
 namespace dispmap::figures {
@@ -34,29 +37,9 @@ namespace {
 
 } // namespace
 
-HeightImage downsampleHeights(const HeightImage& img, int size) {
-    HeightImage small;
-    small.width = size;
-    small.height = size;
-    small.values.assign(static_cast<std::size_t>(size * size), 0.0f);
-    if (size < 2) throw ArgumentError("--size " + std::to_string(size) + ": at least 2");
-    const int fx = img.width / size, fy = img.height / size;
-    if (fx < 1 || fy < 1)
-        throw ArgumentError("--size " + std::to_string(size) + ": the image (" + std::to_string(img.width) + " x " +
-                            std::to_string(img.height) + ") is smaller");
-    for (int y = 0; y < size; ++y)
-        for (int x = 0; x < size; ++x) {
-            double sum = 0;
-            for (int b = 0; b < fy; ++b)
-                for (int a = 0; a < fx; ++a) sum += static_cast<double>(img.at(x * fx + a, y * fy + b));
-            small.values[static_cast<std::size_t>(y * size + x)] = static_cast<float>(sum / (fx * fy));
-        }
-    return small;
-}
-
 namespace {
 MesoHeightField downsample(const HeightImage& img, int size, int layers, double depth) {
-    return mesoHeightFieldFromImage(downsampleHeights(img, size), layers, depth);
+    return mesoHeightFieldFromImage(downsampleHeightImage(img, size), layers, depth);
 }
 
 MesoCamera tableCamera(int size, int layers) {
@@ -137,6 +120,27 @@ Stats measure(const std::vector<Pixel>& px, const std::function<MesoHit(const gl
     return st;
 }
 
+// The fragment shader's frame time for the table's camera: voxel space is world space scaled
+// by tileSize / W (cubic voxels) with the slab's top at z = 0.
+double gpuFrameMs(vulkan::Context& ctx, const MesoScene& scene, const MesoMaps& m, const MesoTechnique& t, int frames) {
+    const MesoHeightField& f = scene.field;
+    vulkan::MesoRenderOptions o;
+    o.width = scene.camera.width;
+    o.height = scene.camera.height;
+    o.tileSize = 1.0;
+    const double s = o.tileSize / f.width;
+    o.depth = f.layers * s;
+    const auto world = [&](glm::dvec3 v) { return glm::dvec3(v.x * s, v.y * s, (v.z - f.layers) * s); };
+    o.camera.eye = world(scene.camera.eye);
+    o.camera.target = world(scene.camera.target);
+    o.camera.fovYDeg = scene.camera.fovDeg;
+    o.planeHalfSize = 12.0; // the far rows reach ~5 tiles away
+    o.quads = 8;
+    o.technique = t;
+    o.frames = frames;
+    return vulkan::renderMeso(ctx, m, o).gpuMs;
+}
+
 void printHeader(std::ostream& out) {
     out << std::left << std::setw(34) << "method" << std::right << std::setw(8) << "it mean" << std::setw(7) << "it p99" << std::setw(10)
         << "err mean" << std::setw(9) << "err p99" << std::setw(8) << "wrong" << std::setw(11) << "memory" << std::setw(11)
@@ -199,15 +203,7 @@ std::vector<MesoScene> mesoScenes(const std::string& dataDir) {
         MesoScene g;
         g.name = "grating";
         const int size = 64, layers = 16;
-        std::vector<float> h(static_cast<std::size_t>(size * size));
-        for (int j = 0; j < size; ++j)
-            for (int i = 0; i < size; ++i) {
-                double v = 2.0 + 1.5 * std::sin(0.2 * i) * std::sin(0.15 * j);
-                if (i % 8 == 3) v = 14.0;                        // walls one texel wide
-                if (i % 8 == 7 && j % 6 == 2) v = 11.0;          // one-texel beads
-                h[static_cast<std::size_t>(j * size + i)] = static_cast<float>(v);
-            }
-        g.field = mesoHeightField(size, size, layers, std::move(h));
+        g.field = mesoFunctionField("grating", size, layers);
         g.camera = tableCamera(size, layers);
         s.push_back(std::move(g));
     }
@@ -279,6 +275,18 @@ void printMesoTable(std::ostream& out, const MesoTableArgs& args) {
     };
     std::map<std::string, Goal> goals;
     std::ostringstream compression;
+    std::unique_ptr<vulkan::Context> ctx;
+    if (args.gpu) {
+        try {
+            vulkan::DeviceOptions o;
+            o.device = args.device;
+            ctx = std::make_unique<vulkan::Context>(o);
+            out << "GPU column: fragment-shader frame time on " << ctx->deviceName() << (ctx->isSoftware() ? " (a CPU device)" : "")
+                << ", median of " << args.gpuFrames << " frames\n\n";
+        } catch (const Error& e) {
+            out << "(no GPU column: " << e.what() << ")\n\n";
+        }
+    }
     for (const MesoScene& scene : mesoScenes(args.dataDir)) {
         const MesoHeightField& hf = scene.field;
         const auto t0 = std::chrono::steady_clock::now();
@@ -309,7 +317,7 @@ void printMesoTable(std::ostream& out, const MesoTableArgs& args) {
                 bytes = m.denseDdmBytes + (row.technique.quadrics ? m.quadrics.bytes() : 0);
                 compressed = m.ddm.bytes() + (row.technique.quadrics ? m.quadrics.bytes() : 0);
             }
-            if (args.gpuMs) st.gpu = args.gpuMs(scene, m, row.technique);
+            if (ctx) st.gpu = gpuFrameMs(*ctx, scene, m, row.technique, args.gpuFrames);
             printRow(out, csv, scene.name, row.label, st, bytes, compressed);
             Goal& g = goals[scene.name];
             if (row.label == "DDM 4x1 + quadric") {

@@ -45,19 +45,17 @@ struct MesoTableArgs {
     std::string csv;          ///< also write the table as CSV
     std::string images;       ///< folder for the iteration pictures (PNG), empty: none
     double minSeconds = 0.15; ///< CPU timing: repeat a frame for at least this long
-    /// The GPU column: renders a technique on the scene and returns the fragment-shader
-    /// frame time in ms (< 0: not available). Empty: no GPU column.
-    std::function<double(const MesoScene&, const MesoMaps&, const MesoTechnique&)> gpuMs;
-    std::string gpuName;
+    /// The GPU column: each height-field row rendered by the fragment-shader marcher (the same
+    /// camera and pixels, Vulkan device `device`, lavapipe by default), median frame time.
+    bool gpu = true;
+    std::string device;
+    int gpuFrames = 5;
 };
 /// Prints, per scene, iterations (mean, p99), hit error against the exact reference (mean,
 /// p99, texels; misses and false hits as a share), memory read by the method (uncompressed and
 /// compressed), CPU time per frame (float, one thread) and the GPU column; then the goals
 /// and the compression table.
 void printMesoTable(std::ostream& out, const MesoTableArgs& args);
-
-/// The image box-filtered to size x size (integer factors; the remainder is cut).
-HeightImage downsampleHeights(const HeightImage& img, int size);
 
 /// Colour of an iteration count as the paper's Figure 7 codes it: blue 0-10, green 10-34,
 /// red 35-59, yellow 60-100 (white above).

@@ -198,11 +198,13 @@ template <class real> MesoHit marchHeightSearch(const MesoHeightField& hf, const
 }
 
 /// Every map the marchers read, built from one height field (what `dispmap meso` builds and
-/// the GPU renderer uploads).
+/// the GPU renderer uploads). A map a scene does not need is not built: its sizes are set and
+/// its data left empty (the flags below; mesoMapOptionsFor picks them from a technique).
 struct MesoMapOptions {
     ConeSet cones{4, 1, true, false}; ///< view and shadow cones of the DDM
     int block = 4;                    ///< compression block size (must divide the sizes)
     int distanceSubsamples = 4;       ///< Donnelly's map: column-model samples per texel
+    bool distance = true, ddm = true, quadrics = true;
 };
 struct MesoMaps {
     MesoHeightField field;
@@ -214,11 +216,32 @@ struct MesoMaps {
 inline MesoMaps buildMesoMaps(const MesoHeightField& field, const MesoMapOptions& options = {}) {
     MesoMaps m;
     m.field = field;
-    m.distance = buildDistanceMap(field, options.distanceSubsamples);
-    const DirectionalDistanceMap dense = buildDdm(field, options.cones);
-    m.denseDdmBytes = dense.bytes();
-    m.ddm = compressDdm(dense, options.block);
-    m.quadrics = buildColumnQuadrics(field);
+    if (options.distance) {
+        m.distance = buildDistanceMap(field, options.distanceSubsamples);
+    } else {
+        m.distance.width = field.width;
+        m.distance.height = field.height;
+        m.distance.layers = field.layers;
+    }
+    if (options.ddm) {
+        const DirectionalDistanceMap dense = buildDdm(field, options.cones);
+        m.denseDdmBytes = dense.bytes();
+        m.ddm = compressDdm(dense, options.block);
+    } else {
+        options.cones.validate();
+        CompressedDdm& c = m.ddm;
+        c.width = field.width;
+        c.height = field.height;
+        c.layers = field.layers;
+        c.block = options.block;
+        c.cones = options.cones;
+    }
+    if (options.quadrics) {
+        m.quadrics = buildColumnQuadrics(field);
+    } else {
+        m.quadrics.width = field.width;
+        m.quadrics.height = field.height;
+    }
     return m;
 }
 
@@ -233,6 +256,18 @@ struct MesoTechnique {
     int linear = 32;      ///< Relief / POM: linear steps
     int binary = 6;       ///< Relief: bisections (POM ignores it)
 };
+
+/// The maps `technique` reads (and the shadow rays' DDM with shadow cones and quadrics when
+/// `shadows`), nothing else.
+inline MesoMapOptions mesoMapOptionsFor(const MesoTechnique& technique, bool shadows, ConeSet cones = {4, 1, false, false}) {
+    MesoMapOptions o;
+    cones.shadow = shadows;
+    o.cones = cones;
+    o.distance = technique.method == MesoMethod::DistanceMap;
+    o.ddm = technique.method == MesoMethod::Ddm || shadows;
+    o.quadrics = (technique.method == MesoMethod::Ddm && technique.quadrics) || shadows;
+    return o;
+}
 
 /// One ray through `maps` by `technique`, in `real`.
 template <class real> MesoHit marchMeso(const MesoMaps& maps, const MesoTechnique& tq, const glm::dvec3& o, const glm::dvec3& d) {
