@@ -142,14 +142,14 @@ double gpuFrameMs(vulkan::Context& ctx, const MesoScene& scene, const MesoMaps& 
 }
 
 void printHeader(std::ostream& out) {
-    out << std::left << std::setw(34) << "method" << std::right << std::setw(8) << "it mean" << std::setw(7) << "it p99" << std::setw(10)
+    out << std::left << std::setw(48) << "method" << std::right << std::setw(8) << "it mean" << std::setw(7) << "it p99" << std::setw(10)
         << "err mean" << std::setw(9) << "err p99" << std::setw(8) << "wrong" << std::setw(11) << "memory" << std::setw(11)
         << "compressed" << std::setw(9) << "CPU ms" << std::setw(9) << "GPU ms" << "\n";
 }
 
 void printRow(std::ostream& out, CsvOut& csv, const std::string& scene, const std::string& label, const Stats& st, std::size_t bytes,
               std::size_t compressed) {
-    out << std::left << std::setw(34) << label << std::right << std::fixed << std::setprecision(1) << std::setw(8) << st.meanIt
+    out << std::left << std::setw(48) << label << std::right << std::fixed << std::setprecision(1) << std::setw(8) << st.meanIt
         << std::setw(7) << std::setprecision(0) << st.p99It << std::setprecision(3) << std::setw(10) << st.meanErr << std::setw(9)
         << st.p99Err << std::setprecision(1) << std::setw(7) << 100 * st.wrong << "%" << std::setw(8) << bytes / 1024 << " KiB"
         << std::setw(7) << compressed / 1024 << " KiB" << std::setprecision(2) << std::setw(9) << st.ms;
