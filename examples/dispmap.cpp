@@ -313,22 +313,6 @@ struct MesoArgs {
     bool shadow = false, table = false;
 };
 
-ConeSet parseCones(const std::string& s, bool shadow) {
-    if (s == "isotropic") return ConeSet::all();
-    const std::size_t x = s.find('x');
-    if (x == std::string::npos) throw ArgumentError("--cones '" + s + "': expected MxN (e.g. 4x1) or isotropic");
-    ConeSet c;
-    try {
-        c.m = std::stoi(s.substr(0, x));
-        c.n = std::stoi(s.substr(x + 1));
-    } catch (const std::exception&) {
-        throw ArgumentError("--cones '" + s + "': expected MxN (e.g. 4x1) or isotropic");
-    }
-    c.shadow = shadow;
-    c.validate();
-    return c;
-}
-
 int mesoCommand(const MesoArgs& a) {
     if (a.table) {
         figures::MesoTableArgs t;
@@ -344,7 +328,7 @@ int mesoCommand(const MesoArgs& a) {
         const auto t0 = std::chrono::steady_clock::now();
         const MesoSolid solid = mesoSolidFromObj(a.mesh, size, size, a.layers);
         const DistanceMap dm = buildSolidDistanceMap(solid);
-        const ConeSet cones = parseCones(a.cones, a.shadow);
+        const ConeSet cones = parseConeSet(a.cones, a.shadow);
         const DirectionalDistanceMap ddm = buildSolidDdm(solid, cones);
         const CompressedDdm c = compressDdm(ddm, a.block);
         const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -356,7 +340,7 @@ int mesoCommand(const MesoArgs& a) {
     }
     if (a.height.empty()) throw ArgumentError("dispmap meso: give --height IMAGE or --mesh OBJ (or --table)");
     MesoMapOptions o;
-    o.cones = parseCones(a.cones, a.shadow);
+    o.cones = parseConeSet(a.cones, a.shadow);
     o.block = a.block;
     HeightImage img = readHeightPng(a.height);
     if (a.size > 0) img = downsampleHeightImage(img, a.size);

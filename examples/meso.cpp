@@ -34,10 +34,6 @@ bool MesoCamera::ray(int x, int y, int layers, glm::dvec3& o, glm::dvec3& d) con
 }
 
 namespace {
-
-} // namespace
-
-namespace {
 MesoHeightField downsample(const HeightImage& img, int size, int layers, double depth) {
     return mesoHeightFieldFromImage(downsampleHeightImage(img, size), layers, depth);
 }
@@ -294,7 +290,7 @@ void printMesoTable(std::ostream& out, const MesoTableArgs& args) {
         std::map<std::string, MesoMaps> maps;
         for (const std::string cones : {"isotropic", "2x1", "4x1", "8x1", "2x2", "4x2", "8x2"}) {
             MesoMapOptions o;
-            o.cones = cones == "isotropic" ? ConeSet::all() : ConeSet{cones[0] - '0', cones[2] - '0', false, false};
+            o.cones = parseConeSet(cones);
             maps.emplace(cones, buildMesoMaps(hf, o));
         }
         const double buildS = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

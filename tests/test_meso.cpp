@@ -130,7 +130,7 @@ TEST_CASE("min-filtered levels hold the minimum and stay conservative", "[meso][
                 for (int i = 0; i < coarse.width; ++i) {
                     float lo = std::numeric_limits<float>::infinity();
                     for (int e = 0; e < 8; ++e) lo = std::min(lo, fine.at(c, 2 * i + (e & 1), 2 * j + (e >> 1 & 1), 2 * k + (e >> 2)));
-                    REQUIRE(coarse.at(c, i, j, k) == lo);
+                    REQUIRE(coarse.at(c, i, j, k) == 0.5f * lo); // in coarse voxels
                     // A ray from anywhere in the coarse voxel (2x the size) within the cone.
                     const glm::dvec3 o(2 * (i + U(rng)), 2 * (j + U(rng)), 2 * (k + U(rng)));
                     glm::dvec3 d;
@@ -140,7 +140,8 @@ TEST_CASE("min-filtered levels hold the minimum and stay conservative", "[meso][
                     const MesoHit h = marchReference<double>(hf, o, d);
                     if (h.hit) REQUIRE(h.t >= static_cast<double>(lo) - 1e-12);
                 }
-    CHECK_THROWS_AS(minFilter(coarse.width % 2 ? coarse : minFilter(minFilter(coarse))), ArgumentError);
+    CHECK(coarse.cap == 0.5f * fine.cap);
+    CHECK_THROWS_AS(minFilter(minFilter(minFilter(coarse))), ArgumentError); // 8 -> 4 -> 2: below 4
 }
 
 TEST_CASE("compression: atlas blocks read back bit for bit, the rest their block minimum", "[meso][ddm]") {
@@ -286,7 +287,7 @@ TEST_CASE("quadratic roots: stable against long double on adversarial coefficien
         check(1.0, -2 * r, r * r + 1e-12 * U(rng), 8 * std::numeric_limits<double>::epsilon());
         check(1.0f, static_cast<float>(-2 * r), static_cast<float>(r * r), 8 * std::numeric_limits<float>::epsilon());
     }
-    // The naive formula loses the small root completely where the stable one keeps it.
+    // The textbook formula (-b + sqrt(disc)) / 2a loses the small root where the stable one keeps it.
     const double a = 1, b = 1e8, c = 1;
     double t0, t1;
     REQUIRE(kern::dmQuadraticRoots(a, b, c, 1e-15, t0, t1) == 2);
@@ -463,12 +464,48 @@ TEST_CASE("the mesostructure file round trip is bit for bit; damage is a clear e
     detail::writeFileAtomically(path + ".bad", bad, "test");
     CHECK_THROWS_AS(loadMesoMaps(path + ".bad"), FileError);
     CHECK_THROWS_WITH(loadMesoMaps(DISPMAP_TEST_DATA "/skimage_brick.png"), Catch::Contains("bad magic"));
+    // Damage behind a valid checksum: the field checks themselves. Offsets: magic 8, version 4,
+    // sizes 12, cones 4, block at 28, subsamples at 32, heights from 36.
+    const auto withCrc = [&](std::vector<unsigned char> b) {
+        const std::uint32_t crc = detail::crc32Of(b.data(), b.size() - 4);
+        for (int i = 0; i < 4; ++i) b[b.size() - 4 + static_cast<std::size_t>(i)] = static_cast<unsigned char>(crc >> (8 * i));
+        detail::writeFileAtomically(path + ".bad", b, "test");
+    };
+    bad = bytes;
+    bad[28] = 3; // block 3 does not divide 8
+    withCrc(bad);
+    CHECK_THROWS_WITH(loadMesoMaps(path + ".bad"), Catch::Contains("block 3"));
+    bad = bytes;
+    bad[36 + 3] = 0x7f; // the first height becomes NaN / Inf
+    bad[36 + 2] = 0xc0;
+    withCrc(bad);
+    CHECK_THROWS_WITH(loadMesoMaps(path + ".bad"), Catch::Contains("not finite"));
+    bad = bytes;
+    bad.insert(bad.end() - 4, {0, 0, 0, 0}); // trailing bytes before the checksum
+    withCrc(bad);
+    CHECK_THROWS_WITH(loadMesoMaps(path + ".bad"), Catch::Contains("unexpected bytes"));
+    // A grid word naming an atlas block that does not exist: find the first atlas word.
+    const std::size_t texels = 64, gridAt = 36 + 4 * texels + 4 * texels * 8 + 4;
+    bool patched = false;
+    for (std::size_t w = 0; w < m.ddm.grid.size() && !patched; ++w)
+        if (m.ddm.grid[w] >> 31) {
+            bad = bytes;
+            bad[gridAt + 4 * w] = 0xff;
+            bad[gridAt + 4 * w + 1] = 0xff;
+            withCrc(bad);
+            CHECK_THROWS_WITH(loadMesoMaps(path + ".bad"), Catch::Contains("missing atlas block"));
+            patched = true;
+        }
+    CHECK(patched);
+    MesoMapOptions partial;
+    partial.ddm = false;
+    CHECK_THROWS_WITH(saveMesoMaps(buildMesoMaps(dmtest::hardField(8, 8, 8), partial), path + ".partial"), Catch::Contains("not built"));
     CHECK_THROWS_WITH(loadMesoMaps(path + ".missing"), Catch::Contains("cannot open"));
 }
 
 TEST_CASE("non-height-field mesostructure: beads from a mesh", "[meso][solid]") {
-    // Two beads floating above the floor (an overhang no height field has), one across the
-    // periodic seam. Conservative: rays from random points of a voxel in its cone never hit
+    // Two beads floating above the floor (an overhang no height field has), one touching the
+    // tile's edge x = 12. Conservative: rays from random points of a voxel in its cone never hit
     // closer than stored; the DDM march finds the exact first hit of the triangles.
     std::vector<glm::dvec3> v;
     std::vector<std::array<int, 3>> t;

@@ -239,7 +239,7 @@ inline DistanceMap buildDistanceMap(const MesoHeightField& hf, int subsamples = 
     std::vector<double> H(static_cast<std::size_t>(fw) * static_cast<std::size_t>(fh));
     for (int y = 0; y < fh; ++y)
         for (int x = 0; x < fw; ++x)
-            H[static_cast<std::size_t>(y * fw + x)] =
+            H[static_cast<std::size_t>(y) * static_cast<std::size_t>(fw) + static_cast<std::size_t>(x)] =
                 kern::dmBilerp(glm::dvec4(hf.cell(x / S, y / S)), glm::dvec2(double(x % S) / S, double(y % S) / S));
     m.d.resize(slice * static_cast<std::size_t>(hf.layers));
     detail::parallelLayers(hf.layers, [&](int k) {
@@ -254,7 +254,7 @@ inline DistanceMap buildDistanceMap(const MesoHeightField& hf, int subsamples = 
         squaredDistanceTransform2D(air, fw, fh);
         for (int j = 0; j < hf.height; ++j)
             for (int i = 0; i < hf.width; ++i) {
-                const std::size_t at = static_cast<std::size_t>(j * S * fw + i * S);
+                const std::size_t at = static_cast<std::size_t>(j) * static_cast<std::size_t>(S) * static_cast<std::size_t>(fw) + static_cast<std::size_t>(i) * static_cast<std::size_t>(S);
                 m.d[static_cast<std::size_t>(k) * slice + static_cast<std::size_t>(j * hf.width + i)] =
                     static_cast<float>(g[at] > 0 ? std::sqrt(g[at]) / S : -std::sqrt(air[at]) / S);
             }
@@ -315,6 +315,24 @@ struct ConeSet {
     }
 };
 
+/// "MxN" (e.g. "4x1"; M in {1, 2, 4, 8}, N in {1, 2}) or "isotropic", with shadow cones when
+/// `shadow`. ArgumentError naming the text otherwise.
+inline ConeSet parseConeSet(const std::string& text, bool shadow = false) {
+    if (text == "isotropic") return ConeSet::all();
+    const std::size_t x = text.find('x');
+    const auto digits = [](const std::string& s) {
+        return !s.empty() && s.size() < 4 && std::all_of(s.begin(), s.end(), [](char ch) { return ch >= '0' && ch <= '9'; });
+    };
+    if (x == std::string::npos || !digits(text.substr(0, x)) || !digits(text.substr(x + 1)))
+        throw ArgumentError("direction cones '" + text + "': expected MxN (e.g. 4x1) or isotropic");
+    ConeSet c;
+    c.m = std::stoi(text.substr(0, x));
+    c.n = std::stoi(text.substr(x + 1));
+    c.shadow = shadow;
+    c.validate();
+    return c;
+}
+
 /// Conservative directional distances: d[c][k][j][i] <= the distance along any ray that starts
 /// anywhere in voxel (i, j, k) with a direction in cone c to the first solid point it meets;
 /// capped at `cap` (the cap is itself a bound). 0 where the solid touches the voxel.
@@ -350,7 +368,7 @@ inline double wrapAngle(double a) {
 // the cone's. Conservative: it may say yes for a box that misses the cone, never no for one
 // that meets it.
 inline bool boxMeetsCone(const Box& D, const double az[2], const double el[2]) {
-    constexpr double pi = 3.14159265358979323846, slack = 1e-9;
+    constexpr double pi = 3.14159265358979323846, slack = 1e-6; // > float rounding of dmConeIndex's tests
     const double cx = std::clamp(0.0, D.lo.x, D.hi.x), cy = std::clamp(0.0, D.lo.y, D.hi.y);
     const double rhoMin = std::sqrt(cx * cx + cy * cy);
     const double mx = std::max(std::abs(D.lo.x), std::abs(D.hi.x)), my = std::max(std::abs(D.lo.y), std::abs(D.hi.y));
@@ -413,7 +431,7 @@ inline DirectionalDistanceMap buildDdm(const MesoHeightField& hf, const ConeSet&
                 for (int a = 0; a < S; ++a) {
                     const double x0 = double(a) / S, x1 = double(a + 1) / S, y0 = double(b) / S, y1 = double(b + 1) / S;
                     const double t = std::max(std::max(H(x0, y0), H(x1, y0)), std::max(H(x1, y1), H(x0, y1)));
-                    subTop[static_cast<std::size_t>(((j * hf.width + i) * S + b) * S + a)] = t;
+                    subTop[((static_cast<std::size_t>(j) * static_cast<std::size_t>(hf.width) + static_cast<std::size_t>(i)) * static_cast<std::size_t>(S) + static_cast<std::size_t>(b)) * static_cast<std::size_t>(S) + static_cast<std::size_t>(a)] = t;
                     top = std::max(top, t);
                 }
             cellTop[static_cast<std::size_t>(j * hf.width + i)] = top;
@@ -463,7 +481,7 @@ inline DirectionalDistanceMap buildDdm(const MesoHeightField& hf, const ConeSet&
 
 /// The next coarser level (Mehra & Kumar §3.1, "min filter"): each voxel of the half-size map
 /// holds the minimum of its 2 x 2 x 2 children, which is again conservative for the union of
-/// their boxes. Needs even sizes.
+/// their boxes, in the coarse map's own voxels (halved: exact). Needs even sizes.
 inline DirectionalDistanceMap minFilter(const DirectionalDistanceMap& fine) {
     if (fine.width % 2 || fine.height % 2 || fine.layers % 2 || fine.width < 4 || fine.height < 4 || fine.layers < 4)
         throw ArgumentError("minFilter: sizes " + std::to_string(fine.width) + " x " + std::to_string(fine.height) + " x " +
@@ -473,7 +491,7 @@ inline DirectionalDistanceMap minFilter(const DirectionalDistanceMap& fine) {
     m.height = fine.height / 2;
     m.layers = fine.layers / 2;
     m.cones = fine.cones;
-    m.cap = fine.cap;
+    m.cap = 0.5f * fine.cap;
     m.d.resize(fine.d.size() / 8);
     for (int c = 0; c < fine.cones.count(); ++c)
         for (int k = 0; k < m.layers; ++k)
@@ -481,7 +499,7 @@ inline DirectionalDistanceMap minFilter(const DirectionalDistanceMap& fine) {
                 for (int i = 0; i < m.width; ++i) {
                     float v = std::numeric_limits<float>::infinity();
                     for (int e = 0; e < 8; ++e) v = std::min(v, fine.at(c, 2 * i + (e & 1), 2 * j + (e >> 1 & 1), 2 * k + (e >> 2)));
-                    m.d[m.index(c, i, j, k)] = v;
+                    m.d[m.index(c, i, j, k)] = 0.5f * v;
                 }
     return m;
 }
@@ -539,7 +557,8 @@ inline CompressedDdm compressDdm(const DirectionalDistanceMap& m, int block = 4)
     c.gx = m.width / block;
     c.gy = m.height / block;
     c.gz = m.layers / block;
-    c.grid.resize(static_cast<std::size_t>(m.cones.count()) * static_cast<std::size_t>(c.gx * c.gy * c.gz));
+    c.grid.resize(static_cast<std::size_t>(m.cones.count()) * static_cast<std::size_t>(c.gx) * static_cast<std::size_t>(c.gy) *
+                  static_cast<std::size_t>(c.gz));
     const std::size_t atlasMax = (std::size_t(1) << 31) - 1;
     for (int cone = 0; cone < m.cones.count(); ++cone)
         for (int bz = 0; bz < c.gz; ++bz)

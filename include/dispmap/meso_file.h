@@ -22,8 +22,12 @@ inline constexpr std::uint32_t kMesoFileVersion = 1;
 inline void saveMesoMaps(const MesoMaps& m, const std::string& path) {
     const MesoHeightField& f = m.field;
     if (m.distance.d.size() != f.h.size() * static_cast<std::size_t>(f.layers) ||
-        m.quadrics.q.size() != 3 * f.h.size() || m.ddm.width != f.width || m.ddm.layers != f.layers)
-        throw ArgumentError("saveMesoMaps('" + path + "'): the maps do not belong to one height field");
+        m.quadrics.q.size() != 3 * f.h.size() || m.ddm.width != f.width || m.ddm.height != f.height || m.ddm.layers != f.layers ||
+        m.ddm.gx * m.ddm.block != f.width || m.ddm.gy * m.ddm.block != f.height || m.ddm.gz * m.ddm.block != f.layers ||
+        m.ddm.grid.size() != static_cast<std::size_t>(m.ddm.cones.count()) * static_cast<std::size_t>(m.ddm.gx) *
+                                 static_cast<std::size_t>(m.ddm.gy) * static_cast<std::size_t>(m.ddm.gz))
+        throw ArgumentError("saveMesoMaps('" + path + "'): the maps do not belong to one height field, or one was not built "
+                            "(the file holds all of them)");
     detail::ByteWriter out;
     out.bytes.insert(out.bytes.end(), kMesoFileMagic.begin(), kMesoFileMagic.end());
     out.u32(kMesoFileVersion);
@@ -108,7 +112,8 @@ inline MesoMaps loadMesoMaps(const std::string& path) {
     c.gx = W / c.block;
     c.gy = H / c.block;
     c.gz = L / c.block;
-    const std::size_t words = static_cast<std::size_t>(cones.count()) * static_cast<std::size_t>(c.gx * c.gy * c.gz);
+    const std::size_t words = static_cast<std::size_t>(cones.count()) * static_cast<std::size_t>(c.gx) * static_cast<std::size_t>(c.gy) *
+                              static_cast<std::size_t>(c.gz);
     if (in.u32("the grid size") != words) throw corrupt("grid size does not match the sizes and cones");
     in.require(4 * static_cast<std::uint64_t>(words), "the grid");
     c.grid.resize(words);

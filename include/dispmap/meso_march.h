@@ -71,7 +71,8 @@ MesoHit marchReference(const MesoHeightField& hf, const glm::dvec3& o0, const gl
 }
 
 /// Donnelly's sphere tracing: `iterations` steps of the trilinearly read distance, or fewer
-/// when it falls to eps or below (eps < 0: always the fixed count, as the chapter's shader).
+/// when it falls to eps or below (eps < 0: the fixed count, as the chapter's shader, except
+/// that a signed distance at or below eps, deep inside the solid, still stops it).
 /// The hit is where the last step ends; a ray that rose through the top is a miss.
 template <class real> MesoHit marchDistanceMap(const DistanceMap& m, const glm::dvec3& o0, const glm::dvec3& d0, int iterations, double eps) {
     detail::checkRay(o0, d0, "marchDistanceMap");
@@ -103,8 +104,10 @@ struct DdmMarch {
 
 /// Algorithm 3.1 (sphere tracing a conservative DDM, quadric intersection 3.2, voxel walls
 /// 3.3) over any map with `float distance(int cone, int i, int j, int k)`; quadrics may be
-/// null only when options.quadrics is false. ArgumentError for an upward ray on a map without
-/// shadow cones.
+/// null only when options.quadrics is false. A ray that runs out of iterations counts as a hit
+/// at its last point (short of the surface: conservative), so a shadow ray never leaks light
+/// and a view ray never shows the sky through the surface. ArgumentError for an upward ray on
+/// a map without shadow cones.
 template <class real, class Map>
 MesoHit marchDdm(const Map& map, const ConeSet& cones, int layers, const ColumnQuadrics* quadrics, const glm::dvec3& o0,
                  const glm::dvec3& d0, const DdmMarch& opt) {
@@ -116,6 +119,7 @@ MesoHit marchDdm(const Map& map, const ConeSet& cones, int layers, const ColumnQ
     const V3 o(o0), d(d0);
     const int cone = kern::dmConeIndex(d, cones.kernelM(), cones.n);
     MesoHit r;
+    r.hit = true; // until the ray leaves: running out of iterations is a hit (see above)
     real t = 0;
     glm::ivec3 v = kern::dmVoxelAt(o, d);
     for (int i = 0; i < opt.maxIterations; ++i) {

@@ -42,6 +42,7 @@ struct MesoSceneDesc {
 /// The procedural height fields of the scenes (voxels): "grating" (walls one texel wide and
 /// one-texel beads) and "waves".
 inline MesoHeightField mesoFunctionField(const std::string& function, int size, int layers) {
+    detail::checkMesoSize("mesostructure function", size, size, layers);
     std::vector<float> h(static_cast<std::size_t>(size) * static_cast<std::size_t>(size));
     const double L = layers;
     for (int j = 0; j < size; ++j)
@@ -138,12 +139,11 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
     s.block = mesoNumber(m, "block", s.block, name, "mesostructure.");
     if (m.contains("cones")) {
         if (!m["cones"].is_string()) throw ArgumentError(name + ": 'mesostructure.cones' must be \"MxN\" or \"isotropic\"");
-        const std::string c = m["cones"].get<std::string>();
-        if (c == "isotropic") s.cones = ConeSet::all();
-        else if (c.size() == 3 && c[1] == 'x' && std::isdigit(static_cast<unsigned char>(c[0])) && std::isdigit(static_cast<unsigned char>(c[2])))
-            s.cones = ConeSet{c[0] - '0', c[2] - '0', false, false};
-        else throw ArgumentError(name + ": 'mesostructure.cones' must be \"MxN\" or \"isotropic\", not '" + c + "'");
-        s.cones.validate();
+        try {
+            s.cones = parseConeSet(m["cones"].get<std::string>());
+        } catch (const ArgumentError& e) {
+            throw ArgumentError(name + ": 'mesostructure.cones': " + e.what());
+        }
     }
     if (j.contains("camera")) {
         const nlohmann::json& c = j["camera"];
@@ -193,6 +193,8 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
             throw ArgumentError(name + ": 'effects' iterations and linear must be >= 1, binary >= 0, exitRule 0 or 1");
     }
     if (s.layers < 2 || s.layers > kMaxMesoLayers) throw ArgumentError(name + ": 'mesostructure.layers' out of range (2 .. 256)");
+    if (s.size != 0 && (s.size < 2 || s.size > kMaxMesoSize))
+        throw ArgumentError(name + ": 'mesostructure.size' " + std::to_string(s.size) + " out of range (2 .. " + std::to_string(kMaxMesoSize) + ")");
     return s;
 }
 

@@ -109,6 +109,8 @@ inline MesoSolid mesoSolidFromMesh(const std::vector<glm::dvec3>& vertices, cons
                 zs.push_back(a.z + u * (b.z - a.z) + v * (c.z - a.z));
             }
             std::sort(zs.begin(), zs.end());
+            // A line through a shared edge or vertex meets each triangle there: one crossing.
+            zs.erase(std::unique(zs.begin(), zs.end(), [](double a, double b) { return b - a <= 1e-9; }), zs.end());
             for (std::size_t k = 0; k + 1 < zs.size(); k += 2)
                 for (int z = std::max(0, static_cast<int>(std::floor(zs[k] / h))); z < fz && (z + 0.5) * h <= zs[k + 1]; ++z)
                     if ((z + 0.5) * h >= zs[k]) mark(x, y, z);
@@ -233,6 +235,7 @@ inline DistanceMap buildSolidDistanceMap(const MesoSolid& s) {
 /// The conservative DDM of the solid (see the top of this file). Cap default: `layers`.
 inline DirectionalDistanceMap buildSolidDdm(const MesoSolid& s, const ConeSet& cones, float cap = 0) {
     cones.validate();
+    if (!(cap >= 0) || !std::isfinite(cap)) throw ArgumentError("directional distance map: cap must be finite and >= 0");
     DirectionalDistanceMap m;
     m.width = s.width;
     m.height = s.height;
@@ -325,6 +328,7 @@ MesoHit marchDdmSolid(const Map& map, const ConeSet& cones, const MesoSolid& s, 
     if (d.z > 0 && !cones.isotropic && !cones.shadow) throw ArgumentError("marchDdmSolid: an upward (shadow) ray needs shadow cones");
     const int cone = kern::dmConeIndex(d, cones.kernelM(), cones.n);
     MesoHit r;
+    r.hit = true; // running out of iterations is a hit at the last point, as in marchDdm
     double t = 0;
     glm::ivec3 v = kern::dmVoxelAt(o, d);
     const glm::dvec4 none(0), miss(0, -1, 0, 0);

@@ -316,8 +316,9 @@ DM_TFUNC int dmSphereTraceStep(DM_INOUT(real) t, real dist, real eps, rvec3 o, r
 // next voxel when it misses (3.3). dist > 0: the paper steps t + dist (exitRule 0); exitRule 1
 // steps exit(v) + dist, which is safe as well: a surface point m hit after the exit point e
 // has m - e in the cone and e in v, so |m - e| >= dist; and no point inside v is hit, since
-// dist > 0 says no surface point of v is reachable within the cone. It never stalls: every
-// step crosses at least one voxel. Returns 1 with t at the hit, 0 with (t, v) advanced.
+// dist > 0 says no surface point of v is reachable within the cone. With exitRule 1 it never
+// stalls: every step crosses at least one voxel. Returns 1 with t at the hit, 0 with (t, v)
+// advanced.
 DM_TFUNC int dmDdmStep(DM_INOUT(real) t, DM_INOUT(ivec3) v, real dist, rvec4 qa, rvec4 qb, rvec4 qc, rvec3 qo, rvec3 o,
                        rvec3 d, int exitRule, real tol) {
     int axis;
@@ -374,7 +375,12 @@ DM_TFUNC rvec2 dmBisectStep(rvec2 bracket, real above) {
 
 // POM's final step (Tatarchuk 2006): where the segment between the last sample above
 // (height aboveA > 0 at bracket.x) and the first below (aboveB <= 0 at bracket.y) crosses.
+// A search that ran out above the surface (aboveB > 0: the last sample, summed in steps of
+// dt, can stop just above a floor at height 0) stays at its last sample, bracket.x.
 DM_TFUNC real dmPomIntersect(rvec2 bracket, real aboveA, real aboveB) {
+    if (aboveB > real(0)) {
+        return bracket.x;
+    }
     real w = aboveA - aboveB;
     return w > real(0) ? bracket.x + (bracket.y - bracket.x) * (aboveA / w) : bracket.y;
 }
@@ -714,8 +720,9 @@ DM_TFUNC int dmSphereTraceStep(DM_INOUT(real) t, real dist, real eps, rvec3 o, r
 // next voxel when it misses (3.3). dist > 0: the paper steps t + dist (exitRule 0); exitRule 1
 // steps exit(v) + dist, which is safe as well: a surface point m hit after the exit point e
 // has m - e in the cone and e in v, so |m - e| >= dist; and no point inside v is hit, since
-// dist > 0 says no surface point of v is reachable within the cone. It never stalls: every
-// step crosses at least one voxel. Returns 1 with t at the hit, 0 with (t, v) advanced.
+// dist > 0 says no surface point of v is reachable within the cone. With exitRule 1 it never
+// stalls: every step crosses at least one voxel. Returns 1 with t at the hit, 0 with (t, v)
+// advanced.
 DM_TFUNC int dmDdmStep(DM_INOUT(real) t, DM_INOUT(ivec3) v, real dist, rvec4 qa, rvec4 qb, rvec4 qc, rvec3 qo, rvec3 o,
                        rvec3 d, int exitRule, real tol) {
     int axis;
@@ -739,7 +746,7 @@ DM_TFUNC int dmDdmStep(DM_INOUT(real) t, DM_INOUT(ivec3) v, real dist, rvec4 qa,
     v = w;
     return 0;
 }
-#line 359 "include/dispmap/kernels/meso.h"
+#line 360 "include/dispmap/kernels/meso.h"
 
 // --- Relief mapping and parallax occlusion mapping (height-field baselines) ----------------
 // Texel cell of xy (unwrapped) and the bilinear fraction inside it.
@@ -748,13 +755,13 @@ DM_TFUNC ivec2 dmHeightCell(rvec2 xy, DM_OUT(rvec2) f) {
     f = xy - b;
     return ivec2(int(b.x), int(b.y));
 }
-#line 367 "include/dispmap/kernels/meso.h"
+#line 368 "include/dispmap/kernels/meso.h"
 
 // Height of p above the surface, given the heights h of its cell (dmBilerp's order) and f.
 DM_TFUNC real dmHeightAbove(rvec3 p, rvec4 h, rvec2 f) {
     return p.z - dmBilerp(h, f);
 }
-#line 372 "include/dispmap/kernels/meso.h"
+#line 373 "include/dispmap/kernels/meso.h"
 
 // Linear search of relief mapping and POM: the bracket (t_prev, t) advances by dt while the
 // sample at t is above the surface; returns true when `above` (at bracket.y) is <= 0.
@@ -765,7 +772,7 @@ DM_TFUNC bool dmLinearSearchStep(DM_INOUT(rvec2) bracket, real dt, real above) {
     bracket = rvec2(bracket.y, bracket.y + dt);
     return false;
 }
-#line 382 "include/dispmap/kernels/meso.h"
+#line 383 "include/dispmap/kernels/meso.h"
 
 // Relief mapping's binary search: given `above` at the bracket's midpoint, keep the half
 // that still contains the crossing (the first end above, the second at or below).
@@ -773,11 +780,16 @@ DM_TFUNC rvec2 dmBisectStep(rvec2 bracket, real above) {
     real mid = real(0.5) * (bracket.x + bracket.y);
     return above <= real(0) ? rvec2(bracket.x, mid) : rvec2(mid, bracket.y);
 }
-#line 389 "include/dispmap/kernels/meso.h"
+#line 390 "include/dispmap/kernels/meso.h"
 
 // POM's final step (Tatarchuk 2006): where the segment between the last sample above
 // (height aboveA > 0 at bracket.x) and the first below (aboveB <= 0 at bracket.y) crosses.
+// A search that ran out above the surface (aboveB > 0: the last sample, summed in steps of
+// dt, can stop just above a floor at height 0) stays at its last sample, bracket.x.
 DM_TFUNC real dmPomIntersect(rvec2 bracket, real aboveA, real aboveB) {
+    if (aboveB > real(0)) {
+        return bracket.x;
+    }
     real w = aboveA - aboveB;
     return w > real(0) ? bracket.x + (bracket.y - bracket.x) * (aboveA / w) : bracket.y;
 }

@@ -110,7 +110,7 @@ DmMesoHit dmMarchDistanceMap(DmMesoSize s, vec3 o, vec3 d, int iterations, float
 DmMesoHit dmMarchDdm(DmMesoSize s, vec3 o, vec3 d, int maxIterations, bool quadrics, int exitRule) {
     int cone = dmConeIndex(d, s.coneM, s.coneN);
     DmMesoHit r;
-    r.hit = false;
+    r.hit = true; // until the ray leaves: running out of iterations is a hit (as marchDdm)
     r.iterations = 0;
     float t = 0.0;
     ivec3 v = dmVoxelAt(o, d);

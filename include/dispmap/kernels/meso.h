@@ -331,8 +331,9 @@ DM_TFUNC int dmSphereTraceStep(DM_INOUT(real) t, real dist, real eps, rvec3 o, r
 // next voxel when it misses (3.3). dist > 0: the paper steps t + dist (exitRule 0); exitRule 1
 // steps exit(v) + dist, which is safe as well: a surface point m hit after the exit point e
 // has m - e in the cone and e in v, so |m - e| >= dist; and no point inside v is hit, since
-// dist > 0 says no surface point of v is reachable within the cone. It never stalls: every
-// step crosses at least one voxel. Returns 1 with t at the hit, 0 with (t, v) advanced.
+// dist > 0 says no surface point of v is reachable within the cone. With exitRule 1 it never
+// stalls: every step crosses at least one voxel. Returns 1 with t at the hit, 0 with (t, v)
+// advanced.
 DM_TFUNC int dmDdmStep(DM_INOUT(real) t, DM_INOUT(ivec3) v, real dist, rvec4 qa, rvec4 qb, rvec4 qc, rvec3 qo, rvec3 o,
                        rvec3 d, int exitRule, real tol) {
     int axis;
@@ -389,7 +390,12 @@ DM_TFUNC rvec2 dmBisectStep(rvec2 bracket, real above) {
 
 // POM's final step (Tatarchuk 2006): where the segment between the last sample above
 // (height aboveA > 0 at bracket.x) and the first below (aboveB <= 0 at bracket.y) crosses.
+// A search that ran out above the surface (aboveB > 0: the last sample, summed in steps of
+// dt, can stop just above a floor at height 0) stays at its last sample, bracket.x.
 DM_TFUNC real dmPomIntersect(rvec2 bracket, real aboveA, real aboveB) {
+    if (aboveB > real(0)) {
+        return bracket.x;
+    }
     real w = aboveA - aboveB;
     return w > real(0) ? bracket.x + (bracket.y - bracket.x) * (aboveA / w) : bracket.y;
 }
