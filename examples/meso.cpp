@@ -137,6 +137,14 @@ double gpuFrameMs(vulkan::Context& ctx, const MesoScene& scene, const MesoMaps& 
     return vulkan::renderMeso(ctx, m, o).gpuMs;
 }
 
+// One row of the compression table (Table 3).
+void compressionRow(std::ostream& out, const std::string& scene, const std::string& cones, std::size_t dense, const CompressedDdm& c) {
+    out << std::fixed << "  " << std::left << std::setw(10) << scene << std::setw(11) << cones << std::right << std::setw(9)
+        << dense / 1024 << " KiB" << std::setw(8) << c.grid.size() * 4 / 1024 << " KiB" << std::setw(8) << c.atlas.size() * 4 / 1024
+        << " KiB" << std::setw(8) << std::setprecision(1) << c.ratio() << "x" << std::setw(9)
+        << 100.0 * static_cast<double>(c.atlasBlocks()) / static_cast<double>(c.grid.size()) << "%\n";
+}
+
 void printHeader(std::ostream& out) {
     out << std::left << std::setw(48) << "method" << std::right << std::setw(8) << "it mean" << std::setw(7) << "it p99" << std::setw(10)
         << "err mean" << std::setw(9) << "err p99" << std::setw(8) << "wrong" << std::setw(11) << "memory" << std::setw(11)
@@ -331,13 +339,7 @@ void printMesoTable(std::ostream& out, const MesoTableArgs& args) {
         }
         // Compression (Table 3): per cone set, the uncompressed DDM against grid + atlas.
         for (const auto& [name, m] : maps)
-            compression << std::fixed << "  " << std::left << std::setw(10) << scene.name << std::setw(11) << name << std::right << std::setw(9)
-                        << m.denseDdmBytes / 1024 << " KiB" << std::setw(8) << m.ddm.grid.size() * 4 / 1024 << " KiB"
-                        << std::setw(8) << m.ddm.atlas.size() * 4 / 1024 << " KiB" << std::setw(8) << std::setprecision(1)
-                        << m.ddm.ratio() << "x" << std::setw(9) << std::setprecision(1)
-                        << 100.0 * static_cast<double>(m.ddm.atlasBlocks()) /
-                               static_cast<double>(m.ddm.grid.size())
-                        << "%\n";
+            compressionRow(compression, scene.name, name, m.denseDdmBytes, m.ddm);
         if (!args.images.empty()) {
             std::filesystem::create_directories(args.images);
             const std::string path = args.images + "/iterations_" + scene.name + ".png";
@@ -392,10 +394,7 @@ void printMesoTable(std::ostream& out, const MesoTableArgs& args) {
                 printRow(out, csv, "beads", label, st, maps.first.bytes() + triBytes, c.bytes() + triBytes);
                 if (rule == 1) pictures.push_back({label, std::move(st)});
             }
-            compression << std::fixed << "  " << std::left << std::setw(10) << "beads" << std::setw(11) << name << std::right << std::setw(9)
-                        << maps.first.bytes() / 1024 << " KiB" << std::setw(8) << c.grid.size() * 4 / 1024 << " KiB" << std::setw(8)
-                        << c.atlas.size() * 4 / 1024 << " KiB" << std::setw(8) << std::setprecision(1) << c.ratio() << "x" << std::setw(9)
-                        << 100.0 * static_cast<double>(c.atlasBlocks()) / static_cast<double>(c.grid.size()) << "%\n";
+            compressionRow(compression, "beads", name, maps.first.bytes(), c);
         }
         if (!args.images.empty()) {
             std::filesystem::create_directories(args.images);

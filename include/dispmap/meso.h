@@ -194,11 +194,11 @@ struct PeriodicLine {
 /// Squared Euclidean distance transform of a periodic 2D function g (nx x ny, x fastest):
 /// out(x, y) = min over (i, j) and periods of (x - i)^2 + (y - j)^2 + g(i, j). Exact (FH, x
 /// pass then y pass). g = +Inf where there is no feature.
-inline void squaredDistanceTransform2D(std::vector<double>& g, int nx, int ny) {
+inline void squaredDistanceTransform2D(double* g, int nx, int ny) {
     detail::PeriodicLine line;
     // Across the seam the nearest copy of a feature is at most n/2 away per axis.
-    for (int y = 0; y < ny; ++y) line.run(g.data() + static_cast<std::ptrdiff_t>(y) * nx, nx, 1, nx / 2 + 1);
-    for (int x = 0; x < nx; ++x) line.run(g.data() + x, ny, nx, ny / 2 + 1);
+    for (int y = 0; y < ny; ++y) line.run(g + static_cast<std::ptrdiff_t>(y) * nx, nx, 1, nx / 2 + 1);
+    for (int x = 0; x < nx; ++x) line.run(g + x, ny, nx, ny / 2 + 1);
 }
 
 /// Donnelly's distance map: for every sample (i, j, k + 1/2), i < width, j < height, k < layers,
@@ -250,8 +250,8 @@ inline DistanceMap buildDistanceMap(const MesoHeightField& hf, int subsamples = 
             g[i] = above * above;
             air[i] = below * below;
         }
-        squaredDistanceTransform2D(g, fw, fh);
-        squaredDistanceTransform2D(air, fw, fh);
+        squaredDistanceTransform2D(g.data(), fw, fh);
+        squaredDistanceTransform2D(air.data(), fw, fh);
         for (int j = 0; j < hf.height; ++j)
             for (int i = 0; i < hf.width; ++i) {
                 const std::size_t at = static_cast<std::size_t>(j) * static_cast<std::size_t>(S) * static_cast<std::size_t>(fw) + static_cast<std::size_t>(i) * static_cast<std::size_t>(S);

@@ -187,6 +187,7 @@ inline MesoSolid mesoSolidFromObj(const std::string& path, int width, int height
 /// between the sub-voxel centre next to them and the nearest solid (outside) or empty (inside,
 /// negative) sub-voxel centre, the floor z < 0 being solid.
 inline DistanceMap buildSolidDistanceMap(const MesoSolid& s) {
+    detail::checkMesoSize("solid distance map", s.width, s.height, s.layers);
     const int S = s.sub, fw = s.width * S, fh = s.height * S, fz = s.layers * S;
     const std::size_t n = static_cast<std::size_t>(fw) * static_cast<std::size_t>(fh) * static_cast<std::size_t>(fz);
     const double inf = std::numeric_limits<double>::infinity();
@@ -196,15 +197,11 @@ inline DistanceMap buildSolidDistanceMap(const MesoSolid& s) {
         in[i] = s.solid[i] ? inf : 0.0;
     }
     const auto transform = [&](std::vector<double>& g, bool floorSolid) {
-        detail::PeriodicLine line;
-        for (int z = 0; z < fz; ++z) {
-            double* slice = g.data() + static_cast<std::ptrdiff_t>(z) * fw * fh;
-            for (int y = 0; y < fh; ++y) line.run(slice + static_cast<std::ptrdiff_t>(y) * fw, fw, 1, fw / 2 + 1);
-            for (int x = 0; x < fw; ++x) line.run(slice + x, fh, fw, fh / 2 + 1);
-        }
+        for (int z = 0; z < fz; ++z) squaredDistanceTransform2D(g.data() + static_cast<std::ptrdiff_t>(z) * fw * fh, fw, fh);
         // z is not periodic: one line per column, with the floor as a feature below z = 0.
-        std::vector<double> f(static_cast<std::size_t>(fz) + 1), d(f.size()), zz(f.size() + 1);
-        std::vector<int> v(f.size());
+        const std::size_t zn = static_cast<std::size_t>(std::max(fz, 1)) + 1; // fz >= 2 (checked): the max tells GCC
+        std::vector<double> f(zn), d(zn), zz(zn + 1);
+        std::vector<int> v(zn);
         for (int y = 0; y < fh; ++y)
             for (int x = 0; x < fw; ++x) {
                 f[0] = floorSolid ? 0.0 : inf;
