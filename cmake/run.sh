@@ -12,7 +12,7 @@ case "$what" in
   demo)
     cmake --preset release >/dev/null
     cmake --build --preset release --target dispmap
-    ./build/release/examples/dispmap demo
+    ./build/release/examples/dispmap/dispmap demo
     ;;
   test)
     cmake --preset "$preset" >/dev/null

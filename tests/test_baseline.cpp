@@ -16,9 +16,9 @@
 
 #include <png.h>
 
-#include "dispmap/baseline.h"
-#include "dispmap/builtin.h"
-#include "dispmap/height_image.h"
+#include "dispmap/surface/baseline.h"
+#include "dispmap/surface/builtin.h"
+#include "dispmap/io/png.h"
 
 using namespace dispmap;
 

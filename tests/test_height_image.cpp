@@ -17,7 +17,7 @@
 
 #include <png.h>
 
-#include "dispmap/height_image.h"
+#include "dispmap/io/png.h"
 
 namespace fs = std::filesystem;
 using dispmap::ArgumentError;

@@ -4,9 +4,12 @@
 #include <cstdio>
 #include <filesystem>
 #include <limits>
+#include <string>
 
-#include "dispmap/height_image.h"
-#include "dispmap/tile_builder.h"
+#include <opensubdiv/far/error.h>
+
+#include "dispmap/io/png.h"
+#include "dispmap/surface/tile_builder.h"
 #include "test_files.h"
 #include "test_support.h"
 
@@ -33,6 +36,27 @@ TEST_CASE("malformed and non-manifold meshes are rejected with the offending ele
     // Crease tag with a vertex out of range.
     REQUIRE_THROWS_WITH(ControlMesh::fromObjText("v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\nt crease 2/1/0 0 9 2.0\n", "m"),
                         Contains("crease refers to vertex 9"));
+}
+
+namespace {
+std::string& embedderLog() {
+    static std::string log;
+    return log;
+}
+void embedderCallback(OpenSubdiv::Far::ErrorType, const char* message) { embedderLog() += message; }
+} // namespace
+
+TEST_CASE("building meshes leaves the application's OpenSubdiv error callback installed", "[inputs]") {
+    // OpenSubdiv has one process-wide error callback and no getter: an engine that installs
+    // its own must still have it after dispmap built (and refused) meshes.
+    embedderLog().clear();
+    OpenSubdiv::Far::SetErrorCallback(&embedderCallback);
+    CHECK(dmtest::shape("catmark_cube").ptexFaceCount() == 6);
+    CHECK_THROWS_AS(dmtest::shape("catmark_fan"), MeshError);
+    CHECK_THROWS_AS(ControlMesh::fromObjText("v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 7\n", "m"), MeshError);
+    OpenSubdiv::Far::Error(OpenSubdiv::Far::FAR_RUNTIME_ERROR, "probe from the test");
+    OpenSubdiv::Far::SetErrorCallback(nullptr);
+    CHECK(embedderLog().find("probe from the test") != std::string::npos);
 }
 
 TEST_CASE("tile sizes out of range, NaN/Inf samples and inconsistent T-junctions are rejected", "[inputs]") {

@@ -4,8 +4,10 @@
 
 #include <random>
 
-#include "dispmap/kernels.h"
-#include "dispmap/tile_builder.h"
+#include "dispmap/kernels/bspline.h"
+#include "dispmap/kernels/lod.h"
+#include "dispmap/kernels/tile.h"
+#include "dispmap/surface/tile_builder.h"
 #include "test_support.h"
 
 using namespace dispmap;
@@ -29,7 +31,7 @@ TEST_CASE("tessellation factors per vertex, edge and inner", "[lod]") {
     CHECK(kern::dmInnerTessFactors(edge) == glm::dvec2(5, 5));
 }
 
-TEST_CASE("mip selection: blending weights, clamps, seed 004's rule", "[lod]") {
+TEST_CASE("mip selection: blending weights, clamps, the texel-ratio rule's rule", "[lod]") {
     int mf = -1, mc = -1;
     double w = kern::dmSelectMips(2.25, 5.0, 5, mf, mc);
     CHECK(w == Approx(0.25));
@@ -48,13 +50,13 @@ TEST_CASE("mip selection: blending weights, clamps, seed 004's rule", "[lod]") {
     CHECK(mf == 0);
     CHECK(kern::dmResolutionFromTessFactor(8.0) == Approx(3.0));
     // M = log2(L/T) + 1: 64 texels with 8 segments -> level 4 (half a texel per segment at 2^4 coarser)
-    CHECK(kern::dmMipLevelSeed004(64.0, 8.0) == Approx(4.0));
-    CHECK(kern::dmMipLevelSeed004(8.0, 64.0) == 0.0);
-    CHECK(kern::dmVertexResolutionSeed004(6, 8.0) == Approx(2.0));
+    CHECK(kern::dmMipLevelTexelRatio(64.0, 8.0) == Approx(4.0));
+    CHECK(kern::dmMipLevelTexelRatio(8.0, 64.0) == 0.0);
+    CHECK(kern::dmVertexResolutionTexelRatio(6, 8.0) == Approx(2.0));
 }
 
 TEST_CASE("crack-free LOD: both faces of every edge choose the same resolution, bit for bit", "[lod]") {
-    // Per-vertex factors and seed-004 resolutions, interpolated with dmBilerp over each face:
+    // Per-vertex factors and texel-ratio resolutions, interpolated with dmBilerp over each face:
     // on a shared edge only that edge's two corners count, so at the same edge point both
     // faces compute identical values. Edge points are dyadic (k / 64) so that the neighbour's
     // parameter 1 - y is exact, as a tessellator's symmetric edge parameters are.

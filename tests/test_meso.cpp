@@ -5,8 +5,8 @@
 
 #include <random>
 
-#include "dispmap/meso_file.h"
-#include "dispmap/meso_solid.h"
+#include "dispmap/io/meso_file.h"
+#include "dispmap/meso/solid.h"
 #include "test_meso_support.h"
 
 using namespace dispmap;

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <functional>
 
-#include "dispmap/meso.h"
+#include "dispmap/meso/march.h"
 
 namespace dmtest {
 

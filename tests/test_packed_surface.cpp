@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "dispmap/packed_surface.h"
+#include "dispmap/surface/packed_surface.h"
 #include "test_support.h"
 
 using namespace dispmap;

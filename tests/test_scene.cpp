@@ -11,9 +11,10 @@
 #include <string>
 #include <vector>
 
-#include "dispmap/builtin.h"
-#include "dispmap/displaced_surface.h"
-#include "dispmap/scene.h"
+#include "dispmap/surface/builtin.h"
+#include "dispmap/surface/displaced_surface.h"
+#include "dispmap/scene/build.h"
+#include "dispmap/scene/scene.h"
 
 using namespace dispmap;
 
@@ -70,7 +71,7 @@ void checkSame(const Scene& a, const Scene& b) {
     CHECK(a.width == b.width);
     CHECK(a.height == b.height);
     CHECK(a.baselineTexels == b.baselineTexels);
-    const SceneEffects &ea = a.effects, &eb = b.effects;
+    const SurfaceEffects &ea = a.effects, &eb = b.effects;
     CHECK(ea.technique == eb.technique);
     CHECK(ea.normals == eb.normals);
     CHECK(ea.autoToleranceDeg == eb.autoToleranceDeg);
@@ -91,7 +92,7 @@ const char* kFullScene = R"({
   "lights": [{"direction": [0, 3, 4], "color": [0.5, 0.25, 2]}, {"direction": [-1, 0, 0]}, {}],
   "ambient": 0.3, "albedo": [0.1, 0.2, 0.3], "background": [1, 0.5, 0],
   "resolution": [64, 4096], "baselineTexels": 17,
-  "effects": {"technique": "baseline", "normals": "auto", "autoTolerance": 0.5, "lod": "seed004",
+  "effects": {"technique": "baseline", "normals": "auto", "autoTolerance": 0.5, "lod": "texelratio",
               "tessellation": {"method": "area", "value": 12.5, "max": 32, "spacing": "integer"}, "wireframe": true}
 })";
 } // namespace
@@ -117,7 +118,7 @@ TEST_CASE("scene: the default scene", "[scene]") {
     CHECK(s.effects.maxFactor == 64);
     CHECK(s.effects.spacing == Spacing::FractionalEven);
     REQUIRE(!s.lights.empty());
-    for (const SceneLight& l : s.lights) CHECK(glm::length(l.direction) == Approx(1.0).margin(1e-15));
+    for (const Light& l : s.lights) CHECK(glm::length(l.direction) == Approx(1.0).margin(1e-15));
     // The camera frames the box: every point of the displaced surface projects inside the
     // central 90 % of the image, and the surface spans at least half of its height.
     const ControlMesh mesh = sceneMesh(s);
@@ -193,7 +194,7 @@ TEST_CASE("scene: every key parsed, and toJson round-trips", "[scene]") {
     CHECK(s.effects.technique == Technique::Baseline);
     CHECK(s.effects.normals == NormalMode::Auto);
     CHECK(s.effects.autoToleranceDeg == 0.5);
-    CHECK(s.effects.lod == MipSelection::Seed004);
+    CHECK(s.effects.lod == MipSelection::TexelRatio);
     CHECK(s.effects.tessMethod == TessMethod::ScreenArea);
     CHECK(s.effects.tessValue == 12.5);
     CHECK(s.effects.maxFactor == 32);
@@ -274,7 +275,7 @@ TEST_CASE("scene: rejected inputs name the scene and the key", "[scene][errors]"
         {R"({"effects": {"normals": "fancy"}})",
          "scene 'bad.json': effects.normals: unknown value 'fancy' (approximate, accurate, auto)"},
         {R"({"effects": {"technique": "raymarch"}})", "effects.technique: unknown value 'raymarch' (base, displaced, baseline)"},
-        {R"({"effects": {"lod": "tf"}})", "effects.lod: unknown value 'tf' (off, tessfactor, seed004)"},
+        {R"({"effects": {"lod": "tf"}})", "effects.lod: unknown value 'tf' (off, tessfactor, texelratio)"},
         {R"({"effects": {"autoTolerance": -1}})", "effects.autoTolerance: -1 is out of range"},
         {R"({"effects": {"wireframe": "yes"}})", "effects.wireframe: expected true or false"},
         {R"({"effects": {"tessellation": {"method": "screen"}}})",

@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-#include "dispmap/tile_builder.h"
+#include "dispmap/surface/tile_builder.h"
 
 namespace dmtest {
 

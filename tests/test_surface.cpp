@@ -22,8 +22,8 @@
 #include <string>
 #include <vector>
 
-#include "dispmap/displaced_surface.h"
-#include "dispmap/tile_builder.h"
+#include "dispmap/surface/displaced_surface.h"
+#include "dispmap/surface/tile_builder.h"
 #include "test_support.h"
 
 using namespace dispmap;

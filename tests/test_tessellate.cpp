@@ -12,8 +12,9 @@
 #include <random>
 #include <sstream>
 
-#include "dispmap/swimming.h"
-#include "dispmap/tessellator.h"
+#include "swimming.h"
+#include "dispmap/io/mesh_writers.h"
+#include "dispmap/surface/tessellator.h"
 #include "test_files.h"
 #include "test_support.h"
 
@@ -295,8 +296,8 @@ TEST_CASE("tessellation is watertight on every test mesh", "[tessellate]") {
         const bool closed = isClosed(sc->mesh);
         for (Spacing spacing : {Spacing::Integer, Spacing::FractionalEven})
             for (int distance = 0; distance < 2; ++distance)
-                for (MipSelection mips : {MipSelection::Off, MipSelection::TessFactor, MipSelection::Seed004}) {
-                    if (large && (spacing == Spacing::Integer || distance || mips == MipSelection::Seed004)) continue;
+                for (MipSelection mips : {MipSelection::Off, MipSelection::TessFactor, MipSelection::TexelRatio}) {
+                    if (large && (spacing == Spacing::Integer || distance || mips == MipSelection::TexelRatio)) continue;
                     TessellateOptions o;
                     o.spacing = spacing;
                     o.mips = mips;
@@ -314,10 +315,10 @@ TEST_CASE("tessellation is watertight with mixed tile sizes", "[tessellate]") {
         bool mixed = false;
         for (const Tile& t : sc->tiles.tiles) mixed = mixed || t.k != sc->tiles.tiles.front().k;
         CHECK(mixed);
-        for (MipSelection mips : {MipSelection::Off, MipSelection::TessFactor, MipSelection::Seed004}) {
+        for (MipSelection mips : {MipSelection::Off, MipSelection::TessFactor, MipSelection::TexelRatio}) {
             TessellateOptions o;
             o.mips = mips;
-            o.spacing = mips == MipSelection::Seed004 ? Spacing::Integer : Spacing::FractionalEven;
+            o.spacing = mips == MipSelection::TexelRatio ? Spacing::Integer : Spacing::FractionalEven;
             CAPTURE(name, toString(mips), toString(o.spacing));
             requireWatertight(tessellate(sc->surface, sc->distanceFactors(glm::dvec3(2, 1, 3)), o),
                               *sc, isClosed(sc->mesh));
@@ -339,7 +340,7 @@ TEST_CASE("shared vertices: every face around them evaluates the same point", "[
         for (bool mixed : {false, true}) {
             const auto sc = makeScene(name, mixed);
             const TileTopology& topo = sc->base.topology();
-            for (MipSelection mips : {MipSelection::Off, MipSelection::TessFactor, MipSelection::Seed004}) {
+            for (MipSelection mips : {MipSelection::Off, MipSelection::TessFactor, MipSelection::TexelRatio}) {
                 TessellateOptions o;
                 o.mips = mips;
                 const Tessellator tess(sc->surface, sc->distanceFactors(glm::dvec3(2, -1, 3)), o);
@@ -416,7 +417,7 @@ TEST_CASE("fractional spacing: the tessellation moves continuously with T", "[te
 TEST_CASE("swimming: mip selection holds the surface still while T changes", "[tessellate]") {
     // A cube with a displacement of 9 cycles per face (tiles 2^5) swept over T = 4..8 at
     // fractional even spacing. Measured (256 samples, dT = 1/4): RMS swim 6.8e-2 without mips,
-    // 8.6e-3 with rho = log2 TF (0.126 of it) and 8.4e-3 with seed 004, against 8.4e-3 for the
+    // 8.6e-3 with rho = log2 TF (0.126 of it) and 8.4e-3 with the texel-ratio rule, against 8.4e-3 for the
     // base surface alone (D = 0): with mips nearly all the swimming left is that of the
     // piecewise-linear base surface. Max swim 0.31 without mips, 0.043 with. Mean error against
     // the finest surface 3.1e-2 without mips, 2.8e-2 with either rule (filtering the bumps a

@@ -18,7 +18,7 @@
 
 #include <zlib.h>
 
-#include "dispmap/tile_file.h"
+#include "dispmap/io/tile_file.h"
 
 namespace fs = std::filesystem;
 using dispmap::ArgumentError;

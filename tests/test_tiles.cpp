@@ -4,8 +4,10 @@
 
 #include <random>
 
-#include "dispmap/kernels.h"
-#include "dispmap/tile_builder.h"
+#include "dispmap/kernels/bspline.h"
+#include "dispmap/kernels/lod.h"
+#include "dispmap/kernels/tile.h"
+#include "dispmap/surface/tile_builder.h"
 #include "test_support.h"
 
 using namespace dispmap;

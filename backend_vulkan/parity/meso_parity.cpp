@@ -12,7 +12,7 @@
 #include <sstream>
 #include <string>
 
-#include "dispmap/meso_march.h"
+#include "dispmap/meso/march.h"
 #include "dispmap/vulkan/buffer.h"
 #include "dispmap/vulkan/compute.h"
 #include "dispmap/vulkan/context.h"

@@ -1,11 +1,11 @@
 #pragma once
 // CPU/GPU parity of the mesostructure marchers: shaders/meso/march.glsl (through
-// shaders/meso/parity_meso.comp) against include/dispmap/meso_march.h in float, on the same
+// shaders/meso/parity_meso.comp) against include/dispmap/meso/march.h in float, on the same
 // float rays, comparing the hit flag, the bits of t and the iteration count. One table row per
 // method and knob set ("march ..."), in parity::run's table.
 #include <vector>
 
-#include "dispmap/meso.h"
+#include "dispmap/meso/march.h"
 #include "parity.h"
 
 namespace dispmap::parity {

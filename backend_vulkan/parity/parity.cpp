@@ -14,8 +14,8 @@
 #include <random>
 #include <sstream>
 
-#include "dispmap/base_surface.h"
-#include "dispmap/tileset.h"
+#include "dispmap/surface/base_surface.h"
+#include "dispmap/core/tileset.h"
 #include "dispmap/vulkan/buffer.h"
 #include "dispmap/vulkan/compute.h"
 #include "dispmap/vulkan/context.h"
@@ -86,8 +86,8 @@ constexpr Kernel kKernels[] = {
     {38, "dmInnerTessFactors", false, "exact", 0, Scale::Relative, "ULP of |r|"},
     {39, "dmSelectMips", false, "exact", 0, Scale::One, "ULP of 1; levels exact"},
     {40, "dmResolutionFromTessFactor", false, "log2", 4, Scale::One, "ULP of max(|r|, 1)"},
-    {41, "dmMipLevelSeed004", false, "div, log2", 12, Scale::One, "ULP of max(|r|, 1)"},
-    {42, "dmVertexResolutionSeed004", false, "exp2, div, log2", 16, Scale::One, "ULP of max(|r|, 1)"},
+    {41, "dmMipLevelTexelRatio", false, "div, log2", 12, Scale::One, "ULP of max(|r|, 1)"},
+    {42, "dmVertexResolutionTexelRatio", false, "exp2, div, log2", 16, Scale::One, "ULP of max(|r|, 1)"},
 };
 // Exact kernels on a device that contracts a*b + c: each fused operation may round once less;
 // a few roundings of terms no larger than the scale.

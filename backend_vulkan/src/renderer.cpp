@@ -1,5 +1,5 @@
-// SceneRenderer: upload of the packed surface and topology, the offscreen render pass, the
-// tessellation pipelines of the scene's effects, frames with timestamps and statistics, and
+// SurfaceRenderer: upload of the packed surface and topology, the offscreen render pass, the
+// tessellation pipelines of the draw's effects, frames with timestamps and statistics, and
 // the read-back. Plain structs with create/destroy functions, destroyed in reverse order.
 #include "dispmap/vulkan/renderer.h"
 
@@ -13,8 +13,8 @@
 #include <glm/ext/matrix_clip_space.hpp>
 #include <glm/ext/matrix_transform.hpp>
 
-#include "dispmap/packed_surface.h"
-#include "dispmap/tessellator.h"
+#include "dispmap/surface/packed_surface.h"
+#include "dispmap/surface/tessellator.h"
 #include "dispmap/vulkan/buffer.h"
 
 // SPIR-V of shaders/render/*, built by backend_vulkan/CMakeLists.txt.
@@ -152,7 +152,7 @@ Topology buildTopology(const DisplacedSurface& surface, const BaselineAtlas* atl
     Topology t;
 
     // Base vertices: limit position, mip floor (Tessellator: base resolution 2 at vertices of
-    // non-quad faces), kMin for seed 004, and the one-ring for the screen-space methods.
+    // non-quad faces), kMin for the texel-ratio rule, and the one-ring for the screen-space methods.
     const std::vector<glm::dvec3> limit = baseVertexLimitPositions(base);
     const VertexMipLimits mips = vertexMipLimits(surface);
     t.baseVertices.resize(static_cast<std::size_t>(nv));
@@ -235,17 +235,17 @@ double median(std::vector<double> v) {
 
 } // namespace
 
-glm::dmat4 viewProjection(const SceneCamera& camera, int width, int height) {
+glm::dmat4 viewProjection(const Camera& camera, int width, int height) {
     const double aspect = double(width) / double(height);
     glm::dmat4 proj = glm::perspectiveRH_ZO(glm::radians(camera.fovYDeg), aspect, camera.nearPlane, camera.farPlane);
     proj[1][1] = -proj[1][1]; // Vulkan's y points down
     return proj * glm::lookAtRH(camera.eye, camera.target, camera.up);
 }
 
-struct SceneRenderer::Impl {
+struct SurfaceRenderer::Impl {
     Context& ctx;
     const DisplacedSurface& surface;
-    Scene scene;
+    SurfaceDraw draw;
     RendererOptions options;
     int width = 0, height = 0;
     std::uint32_t drawCount = 0;
@@ -264,8 +264,8 @@ struct SceneRenderer::Impl {
     VkQueryPool timestamps = VK_NULL_HANDLE, statistics = VK_NULL_HANDLE;
     std::unique_ptr<Buffer> readColor, readNormal, readDepth;
 
-    Impl(Context& c, const Scene& s, const DisplacedSurface& surf, RendererOptions o)
-        : ctx(c), surface(surf), scene(s), options(o), width(s.width), height(s.height) {}
+    Impl(Context& c, const SurfaceDraw& s, const DisplacedSurface& surf, RendererOptions o)
+        : ctx(c), surface(surf), draw(s), options(o), width(s.width), height(s.height) {}
     ~Impl() { destroy(); }
 
     void destroy() noexcept {
@@ -308,19 +308,19 @@ struct SceneRenderer::Impl {
 
     void writeParams() {
         GpuParams p{};
-        p.viewProj = glm::mat4(vulkan::viewProjection(scene.camera, width, height));
-        p.eye = glm::vec4(glm::vec3(scene.camera.eye), 1.0f);
+        p.viewProj = glm::mat4(vulkan::viewProjection(draw.camera, width, height));
+        p.eye = glm::vec4(glm::vec3(draw.camera.eye), 1.0f);
         p.viewport = glm::vec4(float(width), float(height), 0.0f, 0.0f);
-        const SceneEffects& e = scene.effects;
+        const SurfaceEffects& e = draw.effects;
         p.tess = glm::vec4(float(e.tessValue), float(e.maxFactor), 0.0f, 0.0f);
-        p.albedo = glm::vec4(glm::vec3(scene.albedo), float(scene.ambient));
+        p.albedo = glm::vec4(glm::vec3(draw.albedo), float(draw.ambient));
         p.wireColor = glm::vec4(0.05f, 0.05f, 0.05f, 1.0f);
-        p.counts = glm::ivec4(static_cast<int>(std::min<std::size_t>(scene.lights.size(), 4)),
+        p.counts = glm::ivec4(static_cast<int>(std::min<std::size_t>(draw.lights.size(), 4)),
                               static_cast<int>(options.captureCapacity), surface.tiles().tileCount() ? packedWidth : 0, 0);
         p.atlas = glm::vec4(float(atlasW), float(atlasH), float(atlasN), 0.0f);
-        for (std::size_t i = 0; i < scene.lights.size() && i < 4; ++i) {
-            p.lights[i].direction = glm::vec4(glm::vec3(glm::normalize(scene.lights[i].direction)), 0.0f);
-            p.lights[i].color = glm::vec4(glm::vec3(scene.lights[i].color), 0.0f);
+        for (std::size_t i = 0; i < draw.lights.size() && i < 4; ++i) {
+            p.lights[i].direction = glm::vec4(glm::vec3(glm::normalize(draw.lights[i].direction)), 0.0f);
+            p.lights[i].color = glm::vec4(glm::vec3(draw.lights[i].color), 0.0f);
         }
         buffer(kParams).upload(&p, sizeof p);
     }
@@ -338,7 +338,7 @@ struct SceneRenderer::Impl {
         upload(kNodes, ps.nodes);
         upload(kFaceRoots, ps.faceRoots);
         upload(kCornerNormals, ps.cornerNormals);
-        if (scene.effects.technique == Technique::Displaced) {
+        if (draw.effects.technique == Technique::Displaced) {
             const PackedTiles packed = surface.tiles().pack();
             packedWidth = packed.width;
             std::vector<glm::uvec4> records;
@@ -522,7 +522,7 @@ struct SceneRenderer::Impl {
 
     VkPipeline createPipeline(bool wireframe) {
         const Functions& fn = ctx.fn();
-        const SceneEffects& e = scene.effects;
+        const SurfaceEffects& e = draw.effects;
         const bool displaced = e.technique == Technique::Displaced;
         const std::uint32_t spec[6] = {
             static_cast<std::uint32_t>(techniqueIndex(e.technique)),
@@ -665,7 +665,7 @@ struct SceneRenderer::Impl {
         if (timestamps) fn.vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, timestamps, 0);
         if (statistics) fn.vkCmdBeginQuery(cmd, statistics, 0, 0);
         std::array<VkClearValue, 3> clear{};
-        clear[0].color = {{float(scene.background.x), float(scene.background.y), float(scene.background.z), 1.0f}};
+        clear[0].color = {{float(draw.background.x), float(draw.background.y), float(draw.background.z), 1.0f}};
         clear[1].color = {{0.0f, 0.0f, 0.0f, 0.0f}};
         clear[2].depthStencil = {1.0f, 0};
         VkRenderPassBeginInfo rb{};
@@ -709,22 +709,20 @@ struct SceneRenderer::Impl {
     }
 };
 
-SceneRenderer::SceneRenderer(Context& context, const Scene& scene, const DisplacedSurface& surface,
+SurfaceRenderer::SurfaceRenderer(Context& context, const SurfaceDraw& draw, const DisplacedSurface& surface,
                              const BaselineAtlas* atlas, RendererOptions options)
-    : impl_(std::make_unique<Impl>(context, scene, surface, options)) {
+    : impl_(std::make_unique<Impl>(context, draw, surface, options)) {
     if (!context.enabledFeatures().tessellationShader)
         throw VulkanError("Vulkan device '" + context.deviceName() + "' has no tessellation shaders");
     if (options.captureCapacity > 0 && !context.enabledFeatures().vertexPipelineStoresAndAtomics)
         throw VulkanError("Vulkan device '" + context.deviceName() +
                           "' cannot store from the tessellation evaluation shader (vertexPipelineStoresAndAtomics), "
                           "which the vertex capture needs");
-    if (scene.effects.wireframe && !context.enabledFeatures().independentBlend)
+    if (draw.effects.wireframe && !context.enabledFeatures().independentBlend)
         throw VulkanError("Vulkan device '" + context.deviceName() + "' lacks independentBlend, which the wireframe overlay needs");
     if (options.facesPerDraw < 1) throw ArgumentError("faces per draw must be >= 1");
-    if (scene.width < 1 || scene.height < 1 || scene.width > 4096 || scene.height > 4096)
-        throw ArgumentError("image size " + std::to_string(scene.width) + " x " + std::to_string(scene.height) +
-                            " out of range [1, 4096]");
-    const SceneEffects& e = scene.effects;
+    checkSurfaceDraw(draw);
+    const SurfaceEffects& e = draw.effects;
     if (e.technique == Technique::Baseline && !atlas)
         throw ArgumentError("the baseline technique needs its baked atlas (bakeBaseline)");
     if (options.lean && (options.captureCapacity > 0 ||
@@ -743,26 +741,27 @@ SceneRenderer::SceneRenderer(Context& context, const Scene& scene, const Displac
     m.createQueries();
 }
 
-SceneRenderer::~SceneRenderer() = default;
+SurfaceRenderer::~SurfaceRenderer() = default;
 
-void SceneRenderer::setTessValue(double value) {
+void SurfaceRenderer::setTessValue(double value) {
     if (!std::isfinite(value) || !(value > 0.0)) throw ArgumentError("tessellation value must be finite and > 0");
-    impl_->scene.effects.tessValue = value;
+    impl_->draw.effects.tessValue = value;
     impl_->writeParams();
 }
 
-void SceneRenderer::setCamera(const SceneCamera& camera) {
-    impl_->scene.camera = camera;
+void SurfaceRenderer::setCamera(const Camera& camera) {
+    checkCamera(camera);
+    impl_->draw.camera = camera;
     impl_->writeParams();
 }
 
-glm::dmat4 SceneRenderer::viewProjection() const {
-    return vulkan::viewProjection(impl_->scene.camera, impl_->width, impl_->height);
+glm::dmat4 SurfaceRenderer::viewProjection() const {
+    return vulkan::viewProjection(impl_->draw.camera, impl_->width, impl_->height);
 }
 
-std::size_t SceneRenderer::uploadedBytes() const { return impl_->uploaded; }
+std::size_t SurfaceRenderer::uploadedBytes() const { return impl_->uploaded; }
 
-RenderedImage SceneRenderer::render(int frames, int warmup) {
+RenderedImage SurfaceRenderer::render(int frames, int warmup) {
     if (frames < 1 || warmup < 0) throw ArgumentError("render: frames must be >= 1 and warm-up frames >= 0");
     Impl& m = *impl_;
     const Functions& fn = m.ctx.fn();

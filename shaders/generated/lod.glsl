@@ -70,18 +70,18 @@ DM_TFUNC real dmResolutionFromTessFactor(real tf) {
     return log2(max(tf, real(1)));
 }
 
-// Seed 004: the mip level M = log2(L / T) + 1 of an edge L texels long with factor T, which
+// Texel ratio: the mip level M = log2(L / T) + 1 of an edge L texels long with factor T, which
 // leaves at most half a texel per segment; never below 0 (the finest level).
-DM_TFUNC real dmMipLevelSeed004(real texels, real tf) {
+DM_TFUNC real dmMipLevelTexelRatio(real texels, real tf) {
     return max(log2(texels / max(tf, real(1))) + real(1), real(0));
 }
 
-// Seed 004 per base vertex: with L = 2^kMin texels along the vertex's edges (kMin = the
+// Texel ratio per base vertex: with L = 2^kMin texels along the vertex's edges (kMin = the
 // smallest tile size around the vertex, the finest level every tile there has), the level
 // M becomes the resolution kMin - M. A per-vertex value, interpolated with dmBilerp, gives
 // every face around a vertex, and both faces of an edge, the same level there.
-DM_TFUNC real dmVertexResolutionSeed004(int kMin, real tf) {
-    return real(kMin) - dmMipLevelSeed004(exp2(real(kMin)), tf);
+DM_TFUNC real dmVertexResolutionTexelRatio(int kMin, real tf) {
+    return real(kMin) - dmMipLevelTexelRatio(exp2(real(kMin)), tf);
 }
 #undef real
 #undef rvec2

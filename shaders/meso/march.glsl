@@ -1,4 +1,4 @@
-// The mesostructure marchers on the GPU: the twin of include/dispmap/meso_march.h
+// The mesostructure marchers on the GPU: the twin of include/dispmap/meso/march.h
 // (marchDistanceMap, marchDdm over the compressed map, marchHeightSearch), statement by
 // statement, so that lavapipe (which does not fuse multiply-adds; the C++ side is built with
 // -ffp-contract=off) gives the same hits, parameters and iteration counts bit for bit.

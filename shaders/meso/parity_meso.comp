@@ -1,6 +1,6 @@
 #version 450
 // CPU/GPU parity of the mesostructure marchers (shaders/meso/march.glsl against
-// include/dispmap/meso_march.h): one ray per invocation through the method the push
+// include/dispmap/meso/march.h): one ray per invocation through the method the push
 // constants name; writes (hit, t bits, iterations). Runner: backend_vulkan/parity/meso_parity.cpp.
 #extension GL_GOOGLE_include_directive : require
 #define DM_MESO_SET 0

@@ -16,7 +16,7 @@
 // the benchmark that shows "off" costs what "not built" costs.
 layout(constant_id = 0) const int TECHNIQUE = 1;  // 0 base surface, 1 displaced (ours), 2 baseline
 layout(constant_id = 1) const int NORMALS = 0;    // 0 approximate, 1 accurate, 2 auto (per face)
-layout(constant_id = 2) const int LOD = 1;        // 0 off, 1 log2 TF (§6.2), 2 seed 004
+layout(constant_id = 2) const int LOD = 1;        // 0 off, 1 log2 TF (§6.2), 2 the texel-ratio rule
 layout(constant_id = 3) const int TESS_METHOD = 0; // 0 uniform, 1 distance, 2 screen edge, 3 screen area
 layout(constant_id = 4) const bool CAPTURE = false; // TES writes its vertices (tests)
 layout(constant_id = 5) const bool WIRE = false;    // wireframe overlay pass
@@ -63,7 +63,7 @@ struct Face {
 layout(std430, set = 0, binding = 9) readonly buffer Faces { Face faces[]; };
 struct BaseVertex {
     vec4 position; // limit position, w: the mip floor (base resolution: 1, or 2 at non-quad faces)
-    ivec4 ring;    // one-ring offset and count in ringIndices, kMin (seed 004), 1 if the ring is closed
+    ivec4 ring;    // one-ring offset and count in ringIndices, kMin (texel-ratio rule), 1 if the ring is closed
 };
 layout(std430, set = 0, binding = 10) readonly buffer BaseVertices { BaseVertex baseVertices[]; };
 layout(std430, set = 0, binding = 11) readonly buffer RingIndices { uint ringIndices[]; };
@@ -95,7 +95,7 @@ vec3 sampleD1(int face, vec2 uv, float rho) {
     return packedSampleD1(records[face], uv, rho, weight);
 }
 
-// The baseline atlas coordinate of face (u, v) (include/dispmap/baseline.h).
+// The baseline atlas coordinate of face (u, v) (include/dispmap/surface/baseline.h).
 vec2 baselineUV(int face, vec2 uv) {
     return dmBaselineAtlasUV(vec2(faces[face].chart.xy), uv, P.atlas.z, P.atlas.xy);
 }

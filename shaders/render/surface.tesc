@@ -6,7 +6,7 @@
 // faces of an edge compute its factor from the same vertices in the same order, so they agree
 // bit for bit. T-junctions (a quad edge against two halves of an N-gon edge): the halves get
 // an even integer h and the quad edge 2h, so the points of both sides coincide.
-// Also the per-corner mip values of §6.2 / seed 004 for the evaluation shader.
+// Also the per-corner mip values of §6.2 / the texel-ratio rule for the evaluation shader.
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
 layout(vertices = 1) out;
@@ -61,7 +61,7 @@ float baseMip(uint b, float F) {
     if (v.ring.z > 11) {
         return v.position.w;
     }
-    return max(dmVertexResolutionSeed004(v.ring.z, max(f, 1.0)), v.position.w);
+    return max(dmVertexResolutionTexelRatio(v.ring.z, max(f, 1.0)), v.position.w);
 }
 
 // Factor, mip value and largest base factor of a TileTopology vertex: means over its spread list

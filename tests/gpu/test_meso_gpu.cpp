@@ -1,5 +1,5 @@
 // The mesostructure marchers on the GPU (shaders/meso/march.glsl) against the CPU marchers
-// (include/dispmap/meso_march.h): bit parity of hit, t and iteration count for every method on
+// (include/dispmap/meso/march.h): bit parity of hit, t and iteration count for every method on
 // lavapipe; the MesoRenderer against the CPU marchers on its own pixel rays.
 #include <algorithm>
 #include <cmath>

@@ -10,17 +10,17 @@
 
 #include <catch2/catch.hpp>
 
-#include "dispmap/height_image.h"
+#include "dispmap/io/png.h"
 
-#include "dispmap/scene_surface.h"
-#include "dispmap/tessellator.h"
+#include "dispmap/scene/surface.h"
+#include "dispmap/surface/tessellator.h"
 #include "dispmap/vulkan/renderer.h"
 #include "gpu_support.h"
 
 using namespace dispmap;
 using dispmap::vulkan::RenderedImage;
 using dispmap::vulkan::RendererOptions;
-using dispmap::vulkan::SceneRenderer;
+using dispmap::vulkan::SurfaceRenderer;
 
 namespace {
 
@@ -126,7 +126,7 @@ TEST_CASE("renderer: evaluated vertices equal the CPU displaced surface at the s
         SceneSurface s(scene);
         RendererOptions o;
         o.captureCapacity = 200000;
-        SceneRenderer r(dmgpu::context(), scene, s.surface, nullptr, o);
+        SurfaceRenderer r(dmgpu::context(), scene, s.surface, nullptr, o);
         const RenderedImage im = r.render(1, 0);
         REQUIRE(im.capturedTotal > 0);
         REQUIRE(im.capturedTotal <= o.captureCapacity);
@@ -160,7 +160,7 @@ TEST_CASE("renderer: rendered depth matches the CPU tessellator's mesh", "[rende
     scene.effects.lod = MipSelection::TessFactor;
     scene.effects.tessValue = 64;
     SceneSurface s(scene);
-    SceneRenderer r(dmgpu::context(), scene, s.surface);
+    SurfaceRenderer r(dmgpu::context(), scene, s.surface);
     const RenderedImage im = r.render(1, 0);
     dump(im, "depth");
     TessellateOptions to;
@@ -216,9 +216,9 @@ TEST_CASE("renderer: no cracks, with mixed tile sizes, extraordinary vertices an
                 scene.effects.spacing = spacing;
                 scene.effects.tessValue = method == TessMethod::Uniform ? 5.3 : method == TessMethod::Distance ? 17.0 : 0.08;
                 SceneSurface s(scene);
-                SceneRenderer r(dmgpu::context(), scene, s.surface);
+                SurfaceRenderer r(dmgpu::context(), scene, s.surface);
                 for (const View& v : views) {
-                    SceneCamera cam = scene.camera;
+                    Camera cam = scene.camera;
                     cam.eye = v.eye * (mixed ? 0.45 : 1.0);
                     r.setCamera(cam);
                     const RenderedImage im = r.render(1, 0);
@@ -240,7 +240,7 @@ TEST_CASE("renderer: the crack counter sees background enclosed by the surface",
     scene.camera.eye = glm::dvec3(0.3, 0.2, 9.0);
     scene.camera.target = glm::dvec3(0.0);
     SceneSurface s(scene);
-    SceneRenderer r(dmgpu::context(), scene, s.surface);
+    SurfaceRenderer r(dmgpu::context(), scene, s.surface);
     const RenderedImage im = r.render(1, 0);
     dump(im, "torus");
     CHECK(enclosedBackground(im) > 100);
@@ -248,14 +248,14 @@ TEST_CASE("renderer: the crack counter sees background enclosed by the surface",
 }
 
 TEST_CASE("renderer: with LOD on the image changes smoothly across a factor sweep", "[render]") {
-    // Seed 004's swimming, on the GPU: the largest change of the shading between factor T and
+    // The texel-ratio rule's swimming, on the GPU: the largest change of the shading between factor T and
     // T + 1/8 over T in [2, 12]. Without mips new detail pops in as factors grow; with the mip
     // level following the factor the surface only gains what the sampling can carry.
     auto sweep = [](MipSelection lod) {
         Scene scene = smallScene(160, 120);
         scene.effects.lod = lod;
         SceneSurface s(scene);
-        SceneRenderer r(dmgpu::context(), scene, s.surface);
+        SurfaceRenderer r(dmgpu::context(), scene, s.surface);
         double worst = 0, total = 0;
         RenderedImage prev;
         int steps = 0;
@@ -283,16 +283,16 @@ TEST_CASE("renderer: an effect switched off renders what the shaders built witho
     Scene scene = smallScene();
     scene.effects.lod = MipSelection::Off;
     SceneSurface s(scene);
-    SceneRenderer full(dmgpu::context(), scene, s.surface);
+    SurfaceRenderer full(dmgpu::context(), scene, s.surface);
     RendererOptions lean;
     lean.lean = true;
-    SceneRenderer built(dmgpu::context(), scene, s.surface, nullptr, lean);
+    SurfaceRenderer built(dmgpu::context(), scene, s.surface, nullptr, lean);
     const RenderedImage a = full.render(1, 0), b = built.render(1, 0);
     CHECK(a.rgba == b.rgba);
     CHECK(a.stats.triangles == b.stats.triangles);
     // The lean shaders refuse what they cannot draw.
     scene.effects.normals = NormalMode::Accurate;
-    CHECK_THROWS_WITH(SceneRenderer(dmgpu::context(), scene, s.surface, nullptr, lean),
+    CHECK_THROWS_WITH(SurfaceRenderer(dmgpu::context(), scene, s.surface, nullptr, lean),
                       Catch::Contains("lean shaders have approximate normals"));
     dmgpu::checkNoValidationMessages();
 }
@@ -305,9 +305,9 @@ TEST_CASE("renderer: with zero displacement accurate and approximate normals are
     scene.displacement.function = "zero";
     scene.effects.tessValue = 5;
     SceneSurface s(scene);
-    const RenderedImage approx = SceneRenderer(dmgpu::context(), scene, s.surface).render(1, 0);
+    const RenderedImage approx = SurfaceRenderer(dmgpu::context(), scene, s.surface).render(1, 0);
     scene.effects.normals = NormalMode::Accurate;
-    const RenderedImage accurate = SceneRenderer(dmgpu::context(), scene, s.surface).render(1, 0);
+    const RenderedImage accurate = SurfaceRenderer(dmgpu::context(), scene, s.surface).render(1, 0);
     REQUIRE(covered(approx) > approx.width * approx.height / 20);
     CHECK(vulkan::compareImages(accurate, approx).maxNormalDeg == 0.0);
     CHECK(accurate.rgba == approx.rgba);
@@ -324,7 +324,7 @@ TEST_CASE("renderer: every technique and normal mode renders, and the statistics
             scene.effects.technique = t;
             scene.effects.normals = n;
             scene.effects.wireframe = n == NormalMode::Auto;
-            SceneRenderer r(dmgpu::context(), scene, s.surface, &atlas);
+            SurfaceRenderer r(dmgpu::context(), scene, s.surface, &atlas);
             const RenderedImage im = r.render(1, 0);
             INFO(toString(t) << " / " << int(n));
             CHECK(im.stats.patches == static_cast<std::uint64_t>(s.base.faceCount()) * (scene.effects.wireframe ? 2 : 1));
@@ -344,15 +344,15 @@ TEST_CASE("renderer: bad input is a clear error", "[render]") {
     Scene scene = smallScene();
     SceneSurface s(scene);
     scene.effects.technique = Technique::Baseline;
-    CHECK_THROWS_WITH(SceneRenderer(dmgpu::context(), scene, s.surface), Catch::Contains("needs its baked atlas"));
+    CHECK_THROWS_WITH(SurfaceRenderer(dmgpu::context(), scene, s.surface), Catch::Contains("needs its baked atlas"));
     scene.effects.technique = Technique::Displaced;
     scene.width = 0;
-    CHECK_THROWS_WITH(SceneRenderer(dmgpu::context(), scene, s.surface), Catch::Contains("image size"));
+    CHECK_THROWS_WITH(SurfaceRenderer(dmgpu::context(), scene, s.surface), Catch::Contains("image size"));
     scene.width = 64;
     RendererOptions o;
     o.facesPerDraw = 0;
-    CHECK_THROWS_WITH(SceneRenderer(dmgpu::context(), scene, s.surface, nullptr, o), Catch::Contains("faces per draw"));
-    SceneRenderer r(dmgpu::context(), scene, s.surface);
+    CHECK_THROWS_WITH(SurfaceRenderer(dmgpu::context(), scene, s.surface, nullptr, o), Catch::Contains("faces per draw"));
+    SurfaceRenderer r(dmgpu::context(), scene, s.surface);
     CHECK_THROWS_WITH(r.setTessValue(std::nan("")), Catch::Contains("finite"));
     CHECK_THROWS_WITH(r.render(0), Catch::Contains("frames"));
     dmgpu::checkNoValidationMessages();

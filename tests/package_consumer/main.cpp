@@ -1,7 +1,7 @@
 // A program outside the project, built against the installed package.
 #include <cstdio>
-#include <dispmap/kernels.h>
-#include <dispmap/tile_builder.h>
+#include <dispmap/kernels/tile.h>
+#include <dispmap/surface/tile_builder.h>
 #include <dispmap/vulkan/context.h>
 #include <string>
 

@@ -33,9 +33,9 @@ DM_TFUNC void dmParityLod(int kernel, rvec4 a, rvec4 b, ivec4 n, DM_OUT(rvec4) r
     } else if (kernel == 40) {
         r.x = dmResolutionFromTessFactor(a.x);
     } else if (kernel == 41) {
-        r.x = dmMipLevelSeed004(a.x, a.y);
+        r.x = dmMipLevelTexelRatio(a.x, a.y);
     } else if (kernel == 42) {
-        r.x = dmVertexResolutionSeed004(n.x, a.x);
+        r.x = dmVertexResolutionTexelRatio(n.x, a.x);
     }
 }
 // dispmap:glsl-end

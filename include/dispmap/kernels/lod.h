@@ -1,12 +1,12 @@
 #pragma once
 // Level of detail: tessellation factors per base vertex, per edge and inner (Nießner & Loop
 // 2013, §6.1), mip selection from the interpolated factor with blending between levels
-// (§6.2), and the mip rule of seed 004 (M = log2(L/T) + 1), all as per-vertex values that
+// (§6.2), and the mip rule of the texel-ratio rule (M = log2(L/T) + 1), all as per-vertex values that
 // every face around a vertex reproduces exactly.
 //
 // Resolution: we name a tile level by the log2 of its size, rho; level m of a tile with
 // s = 2^k has rho = k - m. A factor TF puts TF segments along an edge, and §6.2 reads the
-// level with rho = log2 TF (blending floor and ceil); seed 004 wants at most half a texel per
+// level with rho = log2 TF (blending floor and ceil); the texel-ratio rule wants at most half a texel per
 // segment, rho = log2 TF - 1. Both are clamped to [1, dmMaxResolution].
 #include "dispmap/kernels/tile.h"
 // Dependencies first: the prelude must come last, after their prelude_end.h.
@@ -73,18 +73,18 @@ DM_TFUNC real dmResolutionFromTessFactor(real tf) {
     return log2(max(tf, real(1)));
 }
 
-// Seed 004: the mip level M = log2(L / T) + 1 of an edge L texels long with factor T, which
+// Texel ratio: the mip level M = log2(L / T) + 1 of an edge L texels long with factor T, which
 // leaves at most half a texel per segment; never below 0 (the finest level).
-DM_TFUNC real dmMipLevelSeed004(real texels, real tf) {
+DM_TFUNC real dmMipLevelTexelRatio(real texels, real tf) {
     return max(log2(texels / max(tf, real(1))) + real(1), real(0));
 }
 
-// Seed 004 per base vertex: with L = 2^kMin texels along the vertex's edges (kMin = the
+// Texel ratio per base vertex: with L = 2^kMin texels along the vertex's edges (kMin = the
 // smallest tile size around the vertex, the finest level every tile there has), the level
 // M becomes the resolution kMin - M. A per-vertex value, interpolated with dmBilerp, gives
 // every face around a vertex, and both faces of an edge, the same level there.
-DM_TFUNC real dmVertexResolutionSeed004(int kMin, real tf) {
-    return real(kMin) - dmMipLevelSeed004(exp2(real(kMin)), tf);
+DM_TFUNC real dmVertexResolutionTexelRatio(int kMin, real tf) {
+    return real(kMin) - dmMipLevelTexelRatio(exp2(real(kMin)), tf);
 }
 // dispmap:glsl-end
 } // namespace dispmap::kern

@@ -13,7 +13,7 @@
 // method and the reference see the same surface. A tangent-space ray is taken into voxel
 // space by dmTangentToVoxel (Donnelly's normalisation factor).
 //
-// The marchers' loops live with the memory they read (include/dispmap/meso_march.h on the
+// The marchers' loops live with the memory they read (include/dispmap/meso/march.h on the
 // CPU, shaders/meso/march.glsl on the GPU): each loop iteration fetches what the kernel of
 // its method needs and calls it, so every decision (step length, cone, stop, root) is made
 // here, once. `dispmap parity` and tests/gpu check that both sides give the same hits and

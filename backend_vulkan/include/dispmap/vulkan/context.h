@@ -13,7 +13,7 @@
 #include <glm/vec3.hpp>
 #include <vulkan/vulkan.h>
 
-#include "dispmap/error.h"
+#include "dispmap/core/error.h"
 
 namespace dispmap::vulkan {
 

@@ -1,11 +1,11 @@
 #pragma once
-// The mesostructure maps (include/dispmap/meso_march.h, MesoMaps) on the device: the five
+// The mesostructure maps (include/dispmap/meso/march.h, MesoMaps) on the device: the five
 // storage buffers shaders/meso/march.glsl reads, in its binding order, and the sizes it takes
 // (DmMesoSize) with the root tolerance mesoRootTolerance<float>().
 #include <array>
 #include <cstdint>
 
-#include "dispmap/meso_march.h"
+#include "dispmap/meso/march.h"
 #include "dispmap/vulkan/buffer.h"
 
 namespace dispmap::vulkan {

@@ -9,7 +9,7 @@
 // the normal of the bilinear height field at the hit and a checker albedo; a shadow ray
 // through the DDM's shadow cones only when `shadows` is on.
 //
-// The marchers are those of include/dispmap/meso_march.h, bit for bit on lavapipe: the
+// The marchers are those of include/dispmap/meso/march.h, bit for bit on lavapipe: the
 // per-pixel rays come back (rayOrigin, rayDir), and marchMeso<float> on them gives the same
 // hits and iteration counts (tests/gpu/test_meso_gpu.cpp).
 #include <cstdint>
@@ -18,7 +18,7 @@
 
 #include <glm/glm.hpp>
 
-#include "dispmap/meso_march.h"
+#include "dispmap/meso/march.h"
 #include "dispmap/vulkan/context.h"
 
 namespace dispmap::vulkan {

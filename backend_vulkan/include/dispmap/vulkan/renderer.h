@@ -1,10 +1,10 @@
 #pragma once
-// dispmap::vulkan::SceneRenderer: the displaced Catmull-Clark surface drawn with hardware
+// dispmap::vulkan::SurfaceRenderer: the displaced Catmull-Clark surface drawn with hardware
 // tessellation (Nießner & Loop 2013, §5.3, §5.4, §6), headless, into an offscreen colour,
 // normal and depth target that is read back.
 //
 // One tessellation patch per Ptex face. The control shader computes the factors by the
-// scene's method (§6.1) from the base vertices; the evaluation shader finds the OpenSubdiv
+// draw's method (§6.1) from the base vertices; the evaluation shader finds the OpenSubdiv
 // Far patch containing (u, v) through the face's quadtree (PackedSurface), evaluates s and its
 // derivatives with the patch-basis kernels, reads D from the packed tiles with mip selection
 // (§6.2) and displaces; the fragment shader forms the normal per pixel from D's derivatives.
@@ -12,10 +12,10 @@
 // watertight without transition patches: both faces of an edge see the same edge factor, and
 // a T-junction against an N-gon gets the even factor h on each half and 2h on the quad.
 //
-// Effects: the scene's effects become specialisation constants (shaders/render/common.glsl);
+// Effects: the draw's effects (SurfaceDraw, surface/draw.h) become specialisation constants (shaders/render/common.glsl);
 // an effect that is off is removed when the pipeline is created. `lean` builds the shaders
 // without the optional effects at all, for the benchmark showing that off costs nothing.
-// Only the pipelines the scene needs are created (the wireframe pipeline only with the
+// Only the pipelines the draw needs are created (the wireframe pipeline only with the
 // wireframe effect); the baseline's textures are uploaded only for the baseline technique.
 #include <cstdint>
 #include <memory>
@@ -23,19 +23,19 @@
 
 #include <glm/glm.hpp>
 
-#include "dispmap/baseline.h"
-#include "dispmap/displaced_surface.h"
-#include "dispmap/scene.h"
+#include "dispmap/surface/baseline.h"
+#include "dispmap/surface/displaced_surface.h"
+#include "dispmap/surface/draw.h"
 #include "dispmap/vulkan/context.h"
 
 namespace dispmap::vulkan {
 
 struct RendererOptions {
     /// Faces per draw call. Lavapipe runs one tessellated draw on one thread through a slow
-    /// per-draw loop (../shared/notes/lavapipe.md), so big draws are split.
+    /// per-draw loop (docs/lavapipe.md), so big draws are split.
     int facesPerDraw = 16;
     /// Shaders built without accurate/auto normals, LOD and capture (the "not built" side of
-    /// the effects benchmark). ArgumentError if the scene asks for one of those.
+    /// the effects benchmark). ArgumentError if the draw asks for one of those.
     bool lean = false;
     /// Room for this many vertices of the evaluation shader, read back by render() (tests);
     /// 0: the capture is not compiled in.
@@ -68,17 +68,18 @@ struct RenderedImage {
     RenderStats stats;
 };
 
-class SceneRenderer {
+class SurfaceRenderer {
   public:
     /// Uploads `surface` (its base surface and tiles) and, for the baseline technique, `atlas`
-    /// (ArgumentError if it is missing then), and builds the pipelines `scene` asks for.
-    /// Keeps references to context and surface. VulkanError if the device lacks tessellation
-    /// shaders (or vertex-pipeline stores with capture on).
-    SceneRenderer(Context& context, const Scene& scene, const DisplacedSurface& surface,
+    /// (ArgumentError if it is missing then), and builds the pipelines `draw` asks for.
+    /// Keeps references to context and surface. ArgumentError for a draw checkSurfaceDraw
+    /// rejects; VulkanError if the device lacks tessellation shaders (or vertex-pipeline
+    /// stores with capture on).
+    SurfaceRenderer(Context& context, const SurfaceDraw& draw, const DisplacedSurface& surface,
                   const BaselineAtlas* atlas = nullptr, RendererOptions options = {});
-    ~SceneRenderer();
-    SceneRenderer(const SceneRenderer&) = delete;
-    SceneRenderer& operator=(const SceneRenderer&) = delete;
+    ~SurfaceRenderer();
+    SurfaceRenderer(const SurfaceRenderer&) = delete;
+    SurfaceRenderer& operator=(const SurfaceRenderer&) = delete;
 
     /// Renders `frames` times (the first `warmup` untimed: lavapipe compiles shaders at first
     /// use) and reads back the last. GPU time is the median over the timed frames.
@@ -86,8 +87,8 @@ class SceneRenderer {
 
     /// Changes the factor value (uniform factor or method constant c) for the next render.
     void setTessValue(double value);
-    /// Moves the camera for the next render.
-    void setCamera(const SceneCamera& camera);
+    /// Moves the camera for the next render (ArgumentError for a camera checkSurfaceDraw rejects).
+    void setCamera(const Camera& camera);
 
     /// The world-to-clip matrix of the current camera (Vulkan clip space, y down, depth 0..1).
     glm::dmat4 viewProjection() const;
@@ -100,7 +101,7 @@ class SceneRenderer {
 };
 
 /// The world-to-clip matrix of `camera` for a width x height image (Vulkan conventions).
-glm::dmat4 viewProjection(const SceneCamera& camera, int width, int height);
+glm::dmat4 viewProjection(const Camera& camera, int width, int height);
 
 /// Image differences of `test` against `reference` (same size): RMS of the 8-bit colour
 /// difference over all pixels, mean and max angle between normals (degrees) where both cover

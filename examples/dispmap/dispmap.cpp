@@ -1,0 +1,484 @@
+// dispmap: the command-line program.
+//   dispmap demo                      build the embedded default tile set, print its figures
+//   dispmap tiles --mesh M.obj ...    build (or --load) a tile set, print statistics, save it
+//   dispmap eval --mesh M.obj --at f,u,v   the displaced surface at points, as JSON
+//   dispmap tessellate --mesh M.obj -o out.ply   a watertight triangle mesh of the displaced surface
+//   dispmap bench [gbench args]       the benchmark table and the timings
+//   dispmap parity                    every kernel on the GPU (lavapipe by default) against C++
+//   dispmap render [SCENE] -o out.png render a scene file (or the embedded default) headless
+//   dispmap meso --height h.png -o m.dmm   mesostructure maps from a height image; --table: the table
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <iostream>
+#include <map>
+#include <sstream>
+#include <memory>
+#include <vector>
+
+#include "dispmap/surface/displaced_surface.h"
+#include "dispmap/core/file_io.h"
+#include "dispmap/io/png.h"
+#include "dispmap/io/meso_file.h"
+#include "dispmap/scene/meso.h"
+#include "dispmap/meso/solid.h"
+#include "dispmap/scene/build.h"
+#include "dispmap/scene/scene.h"
+#include "dispmap/io/mesh_writers.h"
+#include "dispmap/surface/tessellator.h"
+#include "dispmap/surface/tile_builder.h"
+#include "dispmap/io/tile_file.h"
+#include "dispmap/vulkan/context.h"
+#include "figures.h"
+#include "meso.h"
+#include "swim.h"
+#include "parity.h"
+#include "render.h"
+
+using namespace dispmap;
+
+namespace {
+int demo(bool quick) {
+    ControlMesh mesh = figures::defaultMesh();
+    BuildReport rep;
+    TileSet ts = buildTiles(mesh, uniformTileSizes(mesh, 5), figures::defaultDisplacement, {}, &rep);
+    figures::printTileStats(std::cout, "Default scene (embedded box with a pentagon and a triangle, k = 5):", ts, &rep);
+    std::cout << "\n";
+    figures::printMipTable(std::cout, "");
+    std::cout << "\n";
+    figures::printNormalTable(std::cout, "");
+    std::cout << "\n";
+    figures::printSwimFigure(std::cout, "");
+    std::cout << "\n";
+    figures::printRenderTable(std::cout, {"dispmap-demo", "", quick ? 2 : 3, !quick, ""});
+    std::cout << "(images in dispmap-demo/)\n\n";
+    figures::MesoTableArgs meso;
+    meso.dataDir = DISPMAP_EXAMPLE_DATA;
+    meso.images = "dispmap-demo";
+    meso.minSeconds = quick ? 0.02 : 0.15;
+    figures::printMesoTable(std::cout, meso);
+    std::cout << "\nTimings (Google Benchmark" << (quick ? ", short runs" : "") << "):\n" << std::flush;
+    std::vector<std::string> flags;
+    if (quick) flags.push_back("--benchmark_min_time=0.05");
+    return figures::runBenchmarks(flags);
+}
+
+// The displacement of a control mesh, as `tiles`, `eval` and `tessellate` take it: a height
+// image, a procedural function, or a saved tile file.
+struct SourceArgs {
+    std::string mesh, height, load, filter = "haar", function = "waves";
+    int k = 4;
+    double scale = 0.1, offset = 0.0;
+    bool wrap = false;
+};
+
+void addSourceOptions(CLI::App* cmd, SourceArgs& a) {
+    cmd->add_option("--mesh", a.mesh, "control mesh (OBJ, OpenSubdiv tags)");
+    cmd->add_option("--height", a.height, "UV-mapped height image (8/16-bit greyscale PNG)");
+    cmd->add_option("--scale", a.scale, "displacement = offset + scale * height (or the function's amplitude)");
+    cmd->add_option("--offset", a.offset, "displacement offset");
+    cmd->add_flag("--wrap", a.wrap, "wrap texture coordinates outside [0, 1]");
+    cmd->add_option("--function", a.function, "procedural source when no image: waves, zero");
+    cmd->add_option("-k,--size", a.k, "log2 tile size of quads (sub-faces of non-quads get k - 1)");
+    cmd->add_option("--filter", a.filter, "mip filter: haar, bwavelet");
+    cmd->add_option("--load", a.load, "read a tile file instead (with --mesh: check it matches)");
+}
+
+// Builds (or loads) the tile set of `mesh` that `a` describes (as a scene's displacement).
+TileSet makeTiles(const ControlMesh& mesh, const SourceArgs& a, BuildReport* report) {
+    SceneDisplacement d;
+    d.function = a.function;
+    d.height = a.height;
+    d.tiles = a.load;
+    d.scale = a.scale;
+    d.offset = a.offset;
+    d.wrap = a.wrap;
+    d.k = a.k;
+    d.filter = a.filter;
+    return displacementTiles(mesh, d, report);
+}
+
+ControlMesh loadMesh(const SourceArgs& a, const char* command) {
+    if (a.mesh.empty()) throw ArgumentError(std::string(command) + ": give --mesh");
+    return ControlMesh::fromObjFile(a.mesh);
+}
+
+// The surface options `eval` and `tessellate` share.
+struct SurfaceArgs {
+    int isolation = 6;
+    double autoToleranceDeg = 2.0;
+};
+
+void addSurfaceOptions(CLI::App* cmd, SurfaceArgs& a) {
+    cmd->add_option("--isolation", a.isolation, "OpenSubdiv adaptive isolation level (1..10)");
+    cmd->add_option("--auto-tolerance", a.autoToleranceDeg, "auto normals: accepted error in degrees");
+}
+
+BaseSurfaceOptions baseOptions(const SurfaceArgs& a) {
+    BaseSurfaceOptions o;
+    o.isolationLevel = a.isolation;
+    return o;
+}
+
+DisplacedSurfaceOptions displacedOptions(const SurfaceArgs& a) {
+    if (!std::isfinite(a.autoToleranceDeg) || a.autoToleranceDeg < 0)
+        throw ArgumentError("--auto-tolerance must be a finite angle >= 0 (degrees)");
+    DisplacedSurfaceOptions o;
+    o.autoTolerance = a.autoToleranceDeg * 3.14159265358979323846 / 180.0;
+    return o;
+}
+
+// Mesh, tiles and surfaces built once and kept together: the surfaces point at the others.
+struct LoadedSurface {
+    ControlMesh mesh;
+    TileSet tiles;
+    BaseSurface base;
+    DisplacedSurface surface;
+    LoadedSurface(const SourceArgs& source, const SurfaceArgs& a, const char* command)
+        : mesh(loadMesh(source, command)), tiles(makeTiles(mesh, source, nullptr)), base(mesh, baseOptions(a)),
+          surface(base, tiles, displacedOptions(a)) {}
+};
+
+int tiles(const SourceArgs& a, const std::string& output) {
+    if (!a.load.empty() && a.mesh.empty()) {
+        TileSet ts = loadTiles(a.load);
+        figures::printTileStats(std::cout, "Tile file " + a.load + ":", ts, nullptr);
+        return 0;
+    }
+    if (a.mesh.empty()) throw ArgumentError("tiles: give --mesh (with --height or --function) or --load");
+    ControlMesh mesh = ControlMesh::fromObjFile(a.mesh);
+    BuildReport rep;
+    TileSet ts = makeTiles(mesh, a, &rep);
+    figures::printTileStats(std::cout, (a.load.empty() ? "Tiles of " + a.mesh : "Tile file " + a.load) + ":", ts,
+                            a.load.empty() ? &rep : nullptr);
+    if (!output.empty()) {
+        saveTiles(ts, output);
+        std::cout << "  saved " << output << "\n";
+    }
+    return 0;
+}
+
+struct EvalArgs {
+    SourceArgs source;
+    SurfaceArgs surface;
+    std::vector<std::string> at;
+    int grid = 0;
+    double rho = kFinest;
+    bool single = false;
+    std::string output;
+};
+
+// Three comma-separated numbers ("3,0.25,0.5" or "0,0,4"); `what` names the option and the
+// expected form in the error.
+glm::dvec3 parseTriple(const std::string& text, const std::string& what) {
+    std::istringstream in(text);
+    glm::dvec3 p;
+    char c1 = 0, c2 = 0;
+    if (!(in >> p.x >> c1 >> p.y >> c2 >> p.z) || c1 != ',' || c2 != ',' || !(in >> std::ws).eof())
+        throw ArgumentError(what.substr(0, what.find(' ')) + " '" + text + "': expected " + what.substr(what.find(' ') + 1));
+    return p;
+}
+
+nlohmann::json vec(glm::dvec3 a) {
+    for (int i = 0; i < 3; ++i)
+        if (!std::isfinite(a[i])) throw Error("a non-finite value reached the output (a bug: please report)");
+    return nlohmann::json::array({a.x, a.y, a.z});
+}
+
+template <typename real> nlohmann::json evalPoint(const DisplacedSurface& ds, int f, double u, double v, double rho) {
+    const real ru = static_cast<real>(u), rv = static_cast<real>(v), rr = static_cast<real>(rho);
+    const BaseSample<real> b = ds.base().evaluate<real>(f, ru, rv, true);
+    const SurfaceSample<real> ap = ds.evaluate<real>(f, ru, rv, NormalMode::Approximate, rr);
+    const SurfaceSample<real> ac = ds.evaluate<real>(f, ru, rv, NormalMode::Accurate, rr);
+    const SurfaceSample<real> au = ds.evaluate<real>(f, ru, rv, NormalMode::Auto, rr);
+    nlohmann::json j;
+    j["face"] = f;
+    j["u"] = u;
+    j["v"] = v;
+    j["position"] = vec(ac.position);
+    j["displacement"] = {{"D", static_cast<double>(ac.displacement.x)},
+                         {"D_u", static_cast<double>(ac.displacement.y)},
+                         {"D_v", static_cast<double>(ac.displacement.z)}};
+    j["base"] = {{"position", vec(b.p)},   {"du", vec(b.du)},   {"dv", vec(b.dv)},
+                 {"duu", vec(b.duu)},      {"duv", vec(b.duv)}, {"dvv", vec(b.dvv)},
+                 {"normal", vec(ac.baseNormal)}, {"limitNormalWeight", static_cast<double>(b.evWeight)}};
+    j["normal"] = {{"approximate", vec(ap.normal)}, {"accurate", vec(ac.normal)}, {"auto", vec(au.normal)}};
+    j["du"] = {{"approximate", vec(ap.du)}, {"accurate", vec(ac.du)}};
+    j["dv"] = {{"approximate", vec(ap.dv)}, {"accurate", vec(ac.dv)}};
+    j["autoAccurate"] = au.accurate;
+    return j;
+}
+
+int eval(const EvalArgs& a) {
+    if (std::isnan(a.rho)) throw ArgumentError("eval: --rho must be a number");
+    if (a.grid < 0 || a.grid > 1024) throw ArgumentError("eval: --grid must be in [0, 1024]");
+    if (a.at.empty() && a.grid == 0) throw ArgumentError("eval: give points with --at face,u,v or --grid N");
+    const LoadedSurface loaded(a.source, a.surface, "eval");
+    const BaseSurface& base = loaded.base;
+    const DisplacedSurface& ds = loaded.surface;
+    nlohmann::json out;
+    out["mesh"] = a.source.mesh;
+    out["ptexFaces"] = base.faceCount();
+    out["isolationLevel"] = a.surface.isolation;
+    out["precision"] = a.single ? "float" : "double";
+    out["autoToleranceDegrees"] = a.surface.autoToleranceDeg;
+    out["autoAccurateFaces"] = ds.autoAccurateCount();
+    nlohmann::json points = nlohmann::json::array();
+    auto one = [&](int f, double u, double v) {
+        points.push_back(a.single ? evalPoint<float>(ds, f, u, v, a.rho) : evalPoint<double>(ds, f, u, v, a.rho));
+    };
+    for (const std::string& p : a.at) {
+        const glm::dvec3 x = parseTriple(p, "--at face,u,v (e.g. 3,0.25,0.5)");
+        if (x.x != std::floor(x.x) || std::abs(x.x) > 1e9) throw ArgumentError("--at '" + p + "': the face id must be an integer");
+        one(static_cast<int>(x.x), x.y, x.z);
+    }
+    if (a.grid > 0)
+        for (int f = 0; f < base.faceCount(); ++f) {
+            if (base.isHole(f)) continue;
+            for (int j = 0; j < a.grid; ++j)
+                for (int i = 0; i < a.grid; ++i) one(f, (i + 0.5) / a.grid, (j + 0.5) / a.grid);
+        }
+    out["points"] = std::move(points);
+    const std::string text = out.dump(2) + "\n";
+    if (a.output.empty()) {
+        std::cout << text;
+    } else {
+        detail::writeFileAtomically(a.output, std::vector<unsigned char>(text.begin(), text.end()), "JSON output");
+        std::cout << "wrote " << out["points"].size() << " points to " << a.output << "\n";
+    }
+    return 0;
+}
+
+struct TessellateArgs {
+    SourceArgs source;
+    SurfaceArgs surface;
+    TessellateOptions options;
+    std::string output, eye;
+    double factor = 8, distance = 0;
+};
+
+int tessellateCommand(const TessellateArgs& a) {
+    if (a.output.empty()) throw ArgumentError("tessellate: give -o out.obj or out.ply");
+    const bool ply = a.output.size() > 4 && a.output.compare(a.output.size() - 4, 4, ".ply") == 0;
+    const bool obj = a.output.size() > 4 && a.output.compare(a.output.size() - 4, 4, ".obj") == 0;
+    if (!ply && !obj) throw ArgumentError("tessellate: -o must name a .obj or a .ply file");
+    const LoadedSurface loaded(a.source, a.surface, "tessellate");
+    const BaseSurface& base = loaded.base;
+    const TessFactors factors = a.eye.empty() ? uniformTessFactors(base, a.factor)
+                                              : distanceTessFactors(base, parseTriple(a.eye, "--eye x,y,z"), a.distance);
+    const auto t0 = std::chrono::steady_clock::now();
+    const TriangleMesh m = tessellate(loaded.surface, factors, a.options);
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    if (ply)
+        writePly(m, a.output);
+    else
+        writeObj(m, a.output);
+    std::cout << "tessellated " << base.faceCount() << " faces into " << m.triangleCount() << " triangles, "
+              << m.vertexCount() << " vertices in " << ms << " ms (normals " << toString(a.options.normals) << ", spacing "
+              << toString(a.options.spacing) << ", mips " << toString(a.options.mips) << "); wrote " << a.output << "\n";
+    return 0;
+}
+
+struct ParityArgs {
+    parity::Options options;
+    std::string device;
+    bool validation = false;
+    bool strict = false, loose = false;
+};
+
+// Exit status 1 when a kernel is over its bound or the validation layer spoke.
+int runParity(const ParityArgs& a) {
+    vulkan::DeviceOptions dev;
+    dev.device = a.device;
+    dev.validation = a.validation;
+    dev.float64 = vulkan::Float64::IfSupported; // without it only the float kernels run
+    auto ctx = std::make_unique<vulkan::Context>(dev);
+    parity::Options opt = a.options;
+    if (a.strict) opt.strict = 1;
+    if (a.loose) opt.strict = 0;
+    auto results = parity::run(*ctx, opt);
+    parity::printTable(std::cout, results, ctx->deviceName(), parity::strictFor(*ctx, opt));
+    int status = 0;
+    for (const auto& r : results) status |= r.ok() ? 0 : 1;
+    for (const std::string& m : ctx->takeValidationMessages()) {
+        std::cerr << "validation: " << m << "\n";
+        status = 1;
+    }
+    return status;
+}
+struct MesoArgs {
+    std::string height, mesh, output, cones = "4x1", csv, images, data = DISPMAP_EXAMPLE_DATA;
+    int layers = 16, block = 4, size = 0;
+    double depth = -1;
+    bool shadow = false, table = false;
+};
+
+int mesoCommand(const MesoArgs& a) {
+    if (a.table) {
+        figures::MesoTableArgs t;
+        t.dataDir = a.data;
+        t.csv = a.csv;
+        t.images = a.images;
+        figures::printMesoTable(std::cout, t);
+        return 0;
+    }
+    if (!a.mesh.empty()) {
+        if (!a.output.empty()) throw ArgumentError("dispmap meso: the mesostructure file holds height-field maps; no -o with --mesh");
+        const int size = a.size > 0 ? a.size : 32;
+        const auto t0 = std::chrono::steady_clock::now();
+        const TriangleSoup soup = readObjTriangles(a.mesh);
+        const MesoSolid solid = mesoSolidFromMesh(soup.positions, soup.triangles, size, size, a.layers);
+        const DistanceMap dm = buildSolidDistanceMap(solid);
+        const ConeSet cones = parseConeSet(a.cones, a.shadow);
+        const DirectionalDistanceMap ddm = buildSolidDdm(solid, cones);
+        const CompressedDdm c = compressDdm(ddm, a.block);
+        const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        std::cout << "mesh mesostructure " << solid.triangles.size() << " triangles -> " << size << " x " << size << " x " << a.layers
+                  << " voxels (" << 100 * solid.solidShare() << " % solid), cones " << cones.name() << ": distance map "
+                  << dm.bytes() / 1024 << " KiB, DDM " << ddm.bytes() / 1024 << " KiB -> grid " << c.grid.size() * 4 / 1024
+                  << " KiB + atlas " << c.atlas.size() * 4 / 1024 << " KiB (ratio " << c.ratio() << "), built in " << s << " s\n";
+        return 0;
+    }
+    if (a.height.empty()) throw ArgumentError("dispmap meso: give --height IMAGE or --mesh OBJ (or --table)");
+    MesoMapOptions o;
+    o.cones = parseConeSet(a.cones, a.shadow);
+    o.block = a.block;
+    HeightImage img = readHeightPng(a.height);
+    if (a.size > 0) img = downsampleHeightImage(img, a.size);
+    const MesoHeightField hf = mesoHeightFieldFromImage(img, a.layers, a.depth);
+    const auto t0 = std::chrono::steady_clock::now();
+    const MesoMaps m = buildMesoMaps(hf, o);
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    std::cout << "mesostructure " << hf.width << " x " << hf.height << " x " << hf.layers << " voxels, cones " << o.cones.name()
+              << ": distance map " << m.distance.bytes() / 1024 << " KiB, DDM " << m.denseDdmBytes / 1024 << " KiB -> grid "
+              << m.ddm.grid.size() * 4 / 1024 << " KiB + atlas " << m.ddm.atlas.size() * 4 / 1024 << " KiB (ratio "
+              << m.ddm.ratio() << "), quadrics " << m.quadrics.bytes() / 1024 << " KiB, built in " << s << " s\n";
+    if (!a.output.empty()) {
+        saveMesoMaps(m, a.output);
+        std::cout << "wrote " << a.output << "\n";
+    }
+    return 0;
+}
+} // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"dispmap: analytic displacement mapping on Catmull-Clark surfaces"};
+    app.require_subcommand(1);
+    bool quick = false;
+    auto* demoCmd = app.add_subcommand("demo", "build the embedded default tile set and print its figures");
+    demoCmd->add_flag("--quick", quick, "short benchmark runs");
+    SourceArgs ta;
+    std::string tilesOutput;
+    auto* tilesCmd = app.add_subcommand("tiles", "build a tile set from a mesh and a displacement source");
+    addSourceOptions(tilesCmd, ta);
+    tilesCmd->add_option("-o,--output", tilesOutput, "write the tile file");
+    EvalArgs ea;
+    auto* evalCmd = app.add_subcommand("eval", "evaluate the displaced surface at (face, u, v): JSON with positions, "
+                                                "derivatives and the normal in each mode");
+    addSourceOptions(evalCmd, ea.source);
+    evalCmd->add_option("--at", ea.at, "a point: face,u,v (Ptex face id; repeat for more)");
+    evalCmd->add_option("--grid", ea.grid, "also N x N cell centres on every face");
+    addSurfaceOptions(evalCmd, ea.surface);
+    evalCmd->add_option("--rho", ea.rho, "mip resolution to read (log2 of the level size; default: finest)");
+    evalCmd->add_flag("--float", ea.single, "evaluate in single precision (default: double)");
+    evalCmd->add_option("-o,--output", ea.output, "write the JSON here instead of standard output");
+    TessellateArgs ts;
+    auto* tessCmd = app.add_subcommand("tessellate", "tessellate the displaced surface into a watertight triangle mesh "
+                                                      "(OBJ or PLY)");
+    addSourceOptions(tessCmd, ts.source);
+    tessCmd->add_option("-o,--output", ts.output, "out.obj or out.ply (binary)");
+    tessCmd->add_option("--factor", ts.factor, "uniform tessellation factor (segments per base edge)");
+    tessCmd->add_option("--eye", ts.eye, "x,y,z: distance-based factors c / |eye - vertex| instead (with --c)");
+    tessCmd->add_option("--c", ts.distance, "constant of the distance-based factors");
+    tessCmd->add_option("--max-factor", ts.options.maxFactor, "clamp of the factors (default 64, the hardware limit)");
+    addSurfaceOptions(tessCmd, ts.surface);
+    tessCmd->add_option("--normals", ts.options.normals, "approximate, accurate or auto")
+        ->transform(CLI::CheckedTransformer(std::map<std::string, NormalMode>{{"approximate", NormalMode::Approximate},
+                                                                              {"accurate", NormalMode::Accurate},
+                                                                              {"auto", NormalMode::Auto}}));
+    tessCmd->add_option("--spacing", ts.options.spacing, "fractional (continuous, like fractional_even) or integer")
+        ->transform(CLI::CheckedTransformer(
+            std::map<std::string, Spacing>{{"fractional", Spacing::FractionalEven}, {"integer", Spacing::Integer}}));
+    tessCmd->add_option("--mips", ts.options.mips, "mip selection from the factor: off, tf (log2 TF, paper 6.2), texelratio")
+        ->transform(CLI::CheckedTransformer(std::map<std::string, MipSelection>{
+            {"off", MipSelection::Off}, {"tf", MipSelection::TessFactor}, {"texelratio", MipSelection::TexelRatio}}));
+    auto* benchCmd = app.add_subcommand("bench", "mip accuracy table and timings (Google Benchmark flags pass through)");
+    std::string csv;
+    benchCmd->add_option("--csv", csv, "also write the mip table as CSV");
+    std::string normalsCsv, isolationCsv, swimCsv, tessCsv;
+    benchCmd->add_option("--tessellation-csv", tessCsv, "also write the tessellation-factor table as CSV");
+    benchCmd->add_option("--swim-csv", swimCsv, "also write the swimming figure as CSV");
+    benchCmd->add_option("--isolation-csv", isolationCsv, "also write the isolation-level table as CSV");
+    benchCmd->add_option("--normals-csv", normalsCsv, "also write the normals table as CSV");
+    benchCmd->allow_extras();
+    ParityArgs pa;
+    auto* parityCmd = app.add_subcommand("parity", "run every kernel in a compute shader and in C++, compare");
+    parityCmd->add_option("--inputs", pa.options.inputs, "inputs per kernel (exhaustive sets may add more)");
+    parityCmd->add_option("--seed", pa.options.seed, "random seed of the input sets");
+    parityCmd->add_option("--kernel", pa.options.filter, "only kernels whose name contains this");
+    parityCmd->add_option("--device", pa.device, "Vulkan device: index or name substring (default: lavapipe)");
+    parityCmd->add_flag("--validation", pa.validation, "enable the validation layer; any message fails");
+    parityCmd->add_flag("--strict", pa.strict, "hold exact kernels to 0 ULP whatever the device");
+    parityCmd->add_flag("--fused", pa.loose, "allow FMA contraction on exact kernels whatever the device");
+    figures::RenderArgs ra;
+    auto* renderCmd = app.add_subcommand("render", "render a scene (JSON; none: the embedded default) headless with "
+                                                    "hardware tessellation, print GPU time, patches, triangles");
+    renderCmd->add_option("scene", ra.scene, "scene file (JSON)");
+    renderCmd->add_option("-o,--output", ra.output, "write the image (PNG)");
+    renderCmd->add_option("--frames", ra.frames, "timed frames (after one warm-up frame)");
+    renderCmd->add_option("--faces-per-draw", ra.facesPerDraw, "patches per draw call");
+    renderCmd->add_option("--device", ra.device, "Vulkan device: index or name substring (default: lavapipe)");
+    renderCmd->add_flag("--validation", ra.validation, "enable the validation layer; any message fails");
+    std::string renderCsv, renderImages;
+    int renderFrames = 9;
+    benchCmd->add_option("--render-csv", renderCsv, "also write the renderer table as CSV");
+    benchCmd->add_option("--render-images", renderImages, "write the renderer table's images (PNG) to this folder");
+    benchCmd->add_option("--render-frames", renderFrames, "timed frames per renderer row");
+    MesoArgs ma;
+    auto* mesoCmd = app.add_subcommand("meso", "per-pixel mesostructure: build the maps of a height image, or print the "
+                                                "accuracy-vs-time table (--table)");
+    mesoCmd->add_option("--height", ma.height, "height image (greyscale PNG, 8 or 16 bit), tiling");
+    mesoCmd->add_option("--mesh", ma.mesh, "a closed triangle mesh (OBJ) for non-height-field detail, voxelised into --size^2 x --layers");
+    mesoCmd->add_option("--layers", ma.layers, "voxel layers of the slab (2..256)");
+    mesoCmd->add_option("--depth", ma.depth, "height of white in voxels (default: the layers)");
+    mesoCmd->add_option("--cones", ma.cones, "direction cones MxN (M in 1,2,4,8; N in 1,2) or isotropic");
+    mesoCmd->add_flag("--shadow", ma.shadow, "also the shadow cones (upward)");
+    mesoCmd->add_option("--block", ma.block, "compression block size");
+    mesoCmd->add_option("--size", ma.size, "box-filter the image to SIZE x SIZE texels first");
+    mesoCmd->add_option("-o,--output", ma.output, "write the maps (mesostructure file)");
+    mesoCmd->add_flag("--table", ma.table, "the table: every method on the built-in scenes, iterations, error, memory, time");
+    mesoCmd->add_option("--csv", ma.csv, "with --table: also write it as CSV");
+    mesoCmd->add_option("--images", ma.images, "with --table: write the iteration pictures (PNG) to this folder");
+    mesoCmd->add_option("--data", ma.data, "folder of the built-in scenes' images");
+    CLI11_PARSE(app, argc, argv);
+    try {
+        if (*demoCmd) return demo(quick);
+        if (*tilesCmd) return tiles(ta, tilesOutput);
+        if (*evalCmd) return eval(ea);
+        if (*tessCmd) return tessellateCommand(ts);
+        if (*parityCmd) return runParity(pa);
+        if (*renderCmd) return figures::renderCommand(ra);
+        if (*mesoCmd) return mesoCommand(ma);
+        if (*benchCmd) {
+            figures::printMipTable(std::cout, csv);
+            std::cout << "\n";
+            figures::printNormalTable(std::cout, normalsCsv);
+            std::cout << "\n";
+            figures::printIsolationTable(std::cout, isolationCsv);
+            std::cout << "\n";
+            figures::printSwimFigure(std::cout, swimCsv);
+            std::cout << "\n";
+            figures::printTessellationTable(std::cout, tessCsv);
+            std::cout << "\n";
+            figures::printRenderTable(std::cout, {renderImages, renderCsv, renderFrames, true, ""});
+            std::cout << "\n";
+            return figures::runBenchmarks(benchCmd->remaining());
+        }
+    } catch (const dispmap::Error& e) {
+        std::cerr << "dispmap: " << e.what() << "\n";
+        return 1;
+    }
+    return 0;
+}

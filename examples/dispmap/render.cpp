@@ -1,0 +1,230 @@
+// `dispmap render` and the renderer's tables (see render.h).
+#include "render.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <sstream>
+#include <vector>
+
+#include "dispmap/io/png.h"
+#include "dispmap/scene/surface.h"
+#include "dispmap/scene/meso.h"
+#include "dispmap/vulkan/meso_renderer.h"
+#include "dispmap/vulkan/renderer.h"
+#include "figures.h"
+
+namespace dispmap::figures {
+
+namespace {
+
+std::unique_ptr<vulkan::Context> makeContext(const std::string& device, bool validation) {
+    vulkan::DeviceOptions o;
+    o.device = device;
+    o.validation = validation;
+    return std::make_unique<vulkan::Context>(o);
+}
+
+void writePng(const vulkan::RenderedImage& im, const std::string& path) {
+    writeRgbaPng(path, im.width, im.height, im.rgba.data());
+}
+
+std::string fixed(double x, int digits) {
+    std::ostringstream s;
+    s << std::fixed << std::setprecision(digits) << x;
+    return s.str();
+}
+
+} // namespace
+
+namespace {
+// A mesostructure scene (meso_scene.h): the maps its effects need, the fragment-shader marcher.
+int renderMesoCommand(const RenderArgs& a, const nlohmann::json& j) {
+    const MesoSceneDesc s = parseMesoScene(j, a.scene, std::filesystem::path(a.scene).parent_path().string());
+    const MesoMaps maps = buildMesoSceneMaps(s);
+    auto ctx = makeContext(a.device, a.validation);
+    vulkan::MesoRenderOptions o;
+    o.width = s.width;
+    o.height = s.height;
+    o.camera.eye = s.eye;
+    o.camera.target = s.target;
+    o.camera.fovYDeg = s.fov;
+    o.lightDirection = s.light;
+    o.technique = s.technique;
+    o.shadows = s.shadows;
+    o.tileSize = s.tile;
+    o.depth = s.slab;
+    o.frames = a.frames;
+    const vulkan::MesoImage im = vulkan::renderMeso(*ctx, maps, o);
+    if (!a.output.empty()) writeRgbaPng(a.output, im.width, im.height, im.rgba.data());
+    double iterations = 0;
+    std::size_t covered = 0;
+    for (std::size_t i = 0; i < im.iterations.size(); ++i)
+        if (im.covered[i]) {
+            iterations += im.iterations[i];
+            ++covered;
+        }
+    const char* methods[] = {"distance map", "DDM", "relief", "POM"};
+    std::cout << "mesostructure scene '" << s.name << "' on " << ctx->deviceName() << "\n  " << methods[static_cast<int>(s.technique.method)]
+              << (s.technique.method == MesoMethod::Ddm ? (s.technique.quadrics ? " + quadric, cones " + s.cones.name() : ", cones " + s.cones.name()) : "")
+              << (s.shadows ? ", self-shadowing" : "") << "; maps built: " << (maps.field.h.empty() ? "" : "heights")
+              << (maps.distance.d.empty() ? "" : ", distance map") << (maps.ddm.grid.empty() ? "" : ", DDM")
+              << (maps.quadrics.q.empty() ? "" : ", quadrics") << "\n  " << im.width << " x " << im.height << ": GPU time "
+              << fixed(im.gpuMs, 3) << " ms (median of " << im.frames << " frames), mean iterations "
+              << fixed(covered ? iterations / static_cast<double>(covered) : 0.0, 2) << (a.output.empty() ? "" : ", wrote " + a.output) << "\n";
+    int status = 0;
+    for (const std::string& m : ctx->takeValidationMessages()) {
+        std::cerr << "validation: " << m << "\n";
+        status = 1;
+    }
+    return status;
+}
+} // namespace
+
+int renderCommand(const RenderArgs& a) {
+    if (!a.scene.empty()) {
+        const std::vector<unsigned char> bytes = detail::readFileBytes(a.scene, "scene file");
+        const nlohmann::json j = nlohmann::json::parse(bytes.begin(), bytes.end(), nullptr, false, true);
+        if (isMesoScene(j)) {
+            if (a.frames < 1) throw ArgumentError("--frames must be >= 1");
+            return renderMesoCommand(a, j);
+        }
+    }
+    const Scene scene = a.scene.empty() ? defaultScene() : loadScene(a.scene);
+    if (a.frames < 1) throw ArgumentError("--frames must be >= 1");
+    SceneSurface s(scene);
+    auto ctx = makeContext(a.device, a.validation);
+    vulkan::RendererOptions o;
+    o.facesPerDraw = a.facesPerDraw;
+    vulkan::SurfaceRenderer r(*ctx, scene, s.surface, s.atlas ? &*s.atlas : nullptr, o);
+    const vulkan::RenderedImage im = r.render(a.frames, 1);
+    if (!a.output.empty()) writePng(im, a.output);
+    const SurfaceEffects& e = scene.effects;
+    std::cout << "scene '" << scene.name << "' on " << ctx->deviceName() << (ctx->isSoftware() ? " (a CPU device: GPU time is CPU time)" : "")
+              << "\n  " << toString(e.technique) << ", normals " << (e.normals == NormalMode::Approximate ? "approximate" : e.normals == NormalMode::Accurate ? "accurate" : "auto")
+              << ", LOD " << toString(e.lod) << ", factors " << toString(e.tessMethod) << " " << e.tessValue << " (max " << e.maxFactor
+              << ", " << toString(e.spacing) << ")" << (e.wireframe ? ", wireframe" : "") << "\n"
+              << "  " << im.width << " x " << im.height << ": GPU time " << fixed(im.stats.gpuMs, 3) << " ms (median of " << im.stats.frames
+              << " frames), " << im.stats.patches << " patches, " << im.stats.triangles << " triangles, " << im.stats.tesInvocations << " evaluation shader invocations"
+              << (a.output.empty() ? "" : ", wrote " + a.output) << "\n";
+    int status = 0;
+    for (const std::string& m : ctx->takeValidationMessages()) {
+        std::cerr << "validation: " << m << "\n";
+        status = 1;
+    }
+    return status;
+}
+
+void printRenderTable(std::ostream& out, const RenderTableArgs& a) {
+    Scene scene = defaultScene();
+    SceneSurface s(scene);
+    const BaselineAtlas& atlas = s.bake(scene);
+    auto ctx = makeContext(a.device, false);
+    const int factor = 32;
+
+    // Reference: accurate normals, no mips, the highest factor.
+    Scene refScene = scene;
+    refScene.effects.normals = NormalMode::Accurate;
+    refScene.effects.lod = MipSelection::Off;
+    refScene.effects.tessValue = 64;
+    const vulkan::RenderedImage ref = vulkan::SurfaceRenderer(*ctx, refScene, s.surface).render(1, 1);
+    if (!a.imageDir.empty()) {
+        std::filesystem::create_directories(a.imageDir);
+        writePng(ref, a.imageDir + "/reference.png");
+    }
+
+    struct Row {
+        std::string name, file;
+        Technique technique;
+        NormalMode normals;
+        MipSelection lod;
+        double factor;
+    };
+    std::vector<Row> rows = {
+        {"base surface only", "base", Technique::Base, NormalMode::Approximate, MipSelection::Off, factor},
+        {"displaced, approximate normals", "approximate", Technique::Displaced, NormalMode::Approximate, MipSelection::Off, factor},
+        {"displaced, accurate normals", "accurate", Technique::Displaced, NormalMode::Accurate, MipSelection::Off, factor},
+        {"displaced, auto normals", "auto", Technique::Displaced, NormalMode::Auto, MipSelection::Off, factor},
+        {"displaced, approximate, LOD on", "approximate_lod", Technique::Displaced, NormalMode::Approximate, MipSelection::TessFactor, factor},
+        {"displaced, accurate, LOD on", "accurate_lod", Technique::Displaced, NormalMode::Accurate, MipSelection::TessFactor, factor},
+        {"baseline: height + normal map", "baseline", Technique::Baseline, NormalMode::Approximate, MipSelection::Off, factor},
+    };
+    if (a.factorSweep)
+        for (int f : {2, 4, 8, 16, 32, 64}) {
+            rows.push_back({"approximate, LOD on, factor " + std::to_string(f), "", Technique::Displaced, NormalMode::Approximate,
+                            MipSelection::TessFactor, double(f)});
+            rows.push_back({"baseline, factor " + std::to_string(f), "", Technique::Baseline, NormalMode::Approximate,
+                            MipSelection::Off, double(f)});
+        }
+
+    CsvOut csv(a.csvPath, "variant,factor,gpu_ms,ratio_to_base,triangles,rms_color,mean_normal_deg,max_normal_deg,coverage_mismatch,"
+                          "shading_mean_deg,shading_max_deg");
+    out << "Renderer (default scene, " << scene.width << " x " << scene.height << ", uniform factors, fractional_even; device "
+        << ctx->deviceName() << (ctx->isSoftware() ? ": a CPU implementation, so GPU time here is CPU time" : "") << ").\n"
+        << "GPU time: median of " << a.frames << " frames (timestamp queries). Error against an accurate-normal, factor-64,\n"
+        << "no-mip render of the same scene: RMS of the 8-bit colour, mean/max angle between normals where both\n"
+        << "cover the pixel, share of pixels covered by only one. Shading: the normal's angle to the accurate\n"
+        << "normal of the same geometry (same factor and LOD, so the pixels see the same surface points).\n";
+    out << std::left << std::setw(36) << "variant" << std::right << std::setw(7) << "factor" << std::setw(10) << "GPU ms"
+        << std::setw(9) << "x base" << std::setw(10) << "triangles" << std::setw(9) << "RMS rgb" << std::setw(10) << "mean deg"
+        << std::setw(9) << "max deg" << std::setw(9) << "cover%" << std::setw(10) << "shade deg" << std::setw(9) << "max" << "\n";
+    double baseMs = 0;
+    for (const Row& row : rows) {
+        Scene sc = scene;
+        sc.effects.technique = row.technique;
+        sc.effects.normals = row.normals;
+        sc.effects.lod = row.lod;
+        sc.effects.tessValue = row.factor;
+        vulkan::SurfaceRenderer r(*ctx, sc, s.surface, row.technique == Technique::Baseline ? &atlas : nullptr);
+        const vulkan::RenderedImage im = r.render(a.frames, 1);
+        if (row.technique == Technique::Base && row.factor == factor) baseMs = im.stats.gpuMs;
+        const vulkan::ImageError e = vulkan::compareImages(im, ref);
+        // The same geometry with accurate normals: what the normal mode alone costs in shading.
+        Scene acc = sc;
+        acc.effects.technique = Technique::Displaced;
+        acc.effects.normals = NormalMode::Accurate;
+        const vulkan::ImageError shade = vulkan::compareImages(im, vulkan::SurfaceRenderer(*ctx, acc, s.surface).render(1, 0));
+        if (!a.imageDir.empty() && !row.file.empty()) writePng(im, a.imageDir + "/" + row.file + ".png");
+        const double ratio = baseMs > 0 ? im.stats.gpuMs / baseMs : 0.0;
+        out << std::left << std::setw(36) << row.name << std::right << std::setw(7) << row.factor << std::setw(10)
+            << fixed(im.stats.gpuMs, 2) << std::setw(9) << fixed(ratio, 2) << std::setw(10) << im.stats.triangles << std::setw(9)
+            << fixed(e.rmsColor, 2) << std::setw(10) << fixed(e.meanNormalDeg, 3) << std::setw(9) << fixed(e.maxNormalDeg, 2)
+            << std::setw(9) << fixed(100.0 * e.coverageMismatch, 2) << std::setw(10) << fixed(shade.meanNormalDeg, 3) << std::setw(9)
+            << fixed(shade.maxNormalDeg, 2) << "\n";
+        csv << '"' << row.name << "\"," << row.factor << "," << im.stats.gpuMs << "," << ratio << "," << im.stats.triangles << ","
+            << e.rmsColor << "," << e.meanNormalDeg << "," << e.maxNormalDeg << "," << e.coverageMismatch << "," << shade.meanNormalDeg
+            << "," << shade.maxNormalDeg << "\n";
+    }
+    csv.commit();
+
+    // Effects that are off cost nothing: the full shaders specialised with every optional
+    // effect off, against the shaders compiled without them (DM_LEAN), alternating to share
+    // the machine's noise; and the wireframe pass, which exists only when asked for.
+    out << "\nEffects switched off against effects not built (displaced, approximate, LOD off, factor " << factor << "):\n";
+    Scene sc = scene;
+    sc.effects.lod = MipSelection::Off;
+    sc.effects.tessValue = factor;
+    vulkan::RendererOptions lean;
+    lean.lean = true;
+    vulkan::SurfaceRenderer full(*ctx, sc, s.surface), built(*ctx, sc, s.surface, nullptr, lean);
+    std::vector<double> tf, tl;
+    for (int round = 0; round < 5; ++round) {
+        tf.push_back(full.render(a.frames, 1).stats.gpuMs);
+        tl.push_back(built.render(a.frames, 1).stats.gpuMs);
+    }
+    std::sort(tf.begin(), tf.end());
+    std::sort(tl.begin(), tl.end());
+    out << "  specialised off: " << fixed(tf[2], 2) << " ms; not built: " << fixed(tl[2], 2) << " ms; ratio "
+        << fixed(tf[2] / tl[2], 3) << " (medians of 5 alternating rounds of " << a.frames << " frames)\n";
+    sc.effects.wireframe = true;
+    const vulkan::RenderedImage wire = vulkan::SurfaceRenderer(*ctx, sc, s.surface).render(a.frames, 1);
+    out << "  with the wireframe overlay (a second pipeline, built only when asked for): " << fixed(wire.stats.gpuMs, 2)
+        << " ms, " << fixed(wire.stats.gpuMs / tl[1], 2) << "x\n";
+    if (!a.imageDir.empty()) writePng(wire, a.imageDir + "/wireframe.png");
+}
+
+} // namespace dispmap::figures

@@ -1,0 +1,234 @@
+#pragma once
+// TileSet: the displacement function D(face, u, v) of a whole mesh as biquadratic B-spline
+// tiles (one per Ptex face) with one-texel overlap and a mip pyramid per tile, plus the
+// packed GPU layout (one 2D texture, 16-byte patch records). Nießner & Loop 2013, §4.
+//
+// This header needs only GLM and the standard library. Building a TileSet from a mesh is in
+// tile_builder.h (OpenSubdiv); files are in tile_file.h.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "dispmap/core/error.h"
+#include "dispmap/kernels/bspline.h"
+#include "dispmap/kernels/lod.h"
+#include "dispmap/kernels/tile.h"
+
+namespace dispmap {
+
+/// Smallest and largest log2 tile size. k = 8 (256 x 256) keeps a footprint inside the
+/// 16-bit texture offsets of the patch record with room for packing; k >= 1 per the paper.
+inline constexpr int kMinTileLog2 = 1;
+inline constexpr int kMaxTileLog2 = 8;
+
+/// How coarser mip levels are computed from finer ones (§4.3; notes/algorithms.md §1).
+enum class MipFilter : std::uint8_t {
+    Haar = 0,     ///< mean of the 2 x 2 children: smooth, positive weights, shifts curved data
+    BWavelet = 1, ///< lifted quadratic B-wavelet low-pass (-1, 3, 3, -1)/4: exact on quadratics
+};
+inline const char* toString(MipFilter f) { return f == MipFilter::Haar ? "haar" : "bwavelet"; }
+
+/// Size of a tile level with s x s sub-patches, overlap included.
+inline constexpr std::size_t levelTexels(int s) {
+    return static_cast<std::size_t>(s + 2) * static_cast<std::size_t>(s + 2);
+}
+
+/// One tile: s = 2^k sub-patches per side, levels m = 0..k-1 (size s >> m, finest first),
+/// each (s_m + 2)^2 coefficients stored row by row: coefficient (a, b), a along u, b along
+/// v, at index b * (s_m + 2) + a. See kernels/tile.h for the index conventions.
+struct Tile {
+    int k = 0;
+    /// Per corner (0 at (0,0), 1 at (1,0), 2 at (1,1), 3 at (0,1)): k minus the smallest k
+    /// of the tiles around that corner's vertex (§4.4).
+    std::array<std::uint8_t, 4> sizeDifferences{};
+    std::vector<float> coefficients; ///< all levels, finest first
+
+    int size() const { return 1 << k; }
+    int levelCount() const { return k; }
+    static std::size_t levelOffset(int k, int m) {
+        std::size_t off = 0;
+        for (int j = 0; j < m; ++j) off += levelTexels((1 << k) >> j);
+        return off;
+    }
+    static std::size_t totalTexels(int k) { return levelOffset(k, k); }
+    int levelSize(int m) const { return size() >> m; }
+    float* level(int m) { return coefficients.data() + levelOffset(k, m); }
+    const float* level(int m) const { return coefficients.data() + levelOffset(k, m); }
+    float& at(int m, int a, int b) { return level(m)[static_cast<std::size_t>(b * (levelSize(m) + 2) + a)]; }
+    float at(int m, int a, int b) const {
+        return level(m)[static_cast<std::size_t>(b * (levelSize(m) + 2) + a)];
+    }
+};
+
+/// The 16-byte patch record of §5.4, laid out exactly as the paper's struct. A renderer
+/// uploads an array of these; the shader reads each as a uvec4 (kernels/tile.h).
+struct PatchRecord {
+    std::uint16_t globalTextureOffsetXY[2];
+    std::uint16_t localDomainOffsetXY[2];
+    std::uint16_t tileSize;
+    std::uint16_t rotation;
+    std::uint8_t tileSizeDifferences[4];
+};
+static_assert(sizeof(PatchRecord) == 16, "the patch record must be 16 bytes (paper §5.4)");
+static_assert(alignof(PatchRecord) <= 4, "the patch record must pack into uvec4 arrays");
+
+/// The record as the four 32-bit words a shader reads (little-endian host assumed, as on
+/// every platform Vulkan runs on).
+inline glm::uvec4 recordWords(const PatchRecord& r) {
+    glm::uvec4 w;
+    static_assert(sizeof(w) == sizeof(r));
+    std::memcpy(&w, &r, sizeof(r));
+    return w;
+}
+
+/// All tiles packed into one texture: each tile's footprint (kernels dmTileFootprint) at a
+/// per-tile offset; unused texels hold 0.
+struct PackedTiles {
+    int width = 0, height = 0;
+    std::vector<float> texels;          ///< row by row, width * height
+    std::vector<PatchRecord> records;   ///< one per tile (depth 0: the tile is the patch)
+    std::size_t usedTexels = 0;         ///< texels inside footprints
+    std::size_t paperTexels = 0;        ///< sum over tiles of (1.5 s + 4)(s + 2), §4.3
+
+    /// The renderer's displacement lookup on the CPU, kernel for kernel what the tessellation
+    /// evaluation shader does: (D, D_u, D_v) with respect to the tile's (u, v) of `record`,
+    /// reading the two mip levels that resolution rho selects (dmSelectMips, clamped by the
+    /// §4.4 maximum at (u, v)) from the packed texture and blending them (dmBlendMips).
+    template <typename real> glm::vec<3, real> sampleD1(int record, glm::vec<2, real> uv, real rho) const {
+        const glm::uvec4 r = recordWords(records.at(static_cast<std::size_t>(record)));
+        const int s = kern::dmRecordTileSize(r);
+        const int k = kern::dmTileLog2(s);
+        const real maxRes = kern::dmMaxResolution(k, kern::dmUnpackSizeDifferences(r.w), uv);
+        int mFine = 0, mCoarse = 0;
+        const real w = kern::dmSelectMips(rho, maxRes, k, mFine, mCoarse);
+        auto level = [&](int m) {
+            glm::ivec2 texel;
+            const glm::vec<2, real> t = kern::dmPackedLocate(r, m, uv, texel);
+            glm::mat<3, 3, real> c;
+            for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j)
+                    c[i][j] = static_cast<real>(texels[static_cast<std::size_t>(texel.y + j) * static_cast<std::size_t>(width) +
+                                                       static_cast<std::size_t>(texel.x + i)]);
+            return kern::dmTileD1(c, t, s >> m);
+        };
+        return kern::dmBlendMips(level(mCoarse), level(mFine), w);
+    }
+};
+
+class TileSet {
+  public:
+    MipFilter filter = MipFilter::Haar;
+    std::vector<Tile> tiles;            ///< indexed by Ptex face id
+    std::uint64_t topologyHash = 0;     ///< fingerprint of the mesh topology it was built for
+
+    int tileCount() const { return static_cast<int>(tiles.size()); }
+
+    /// The 3 x 3 coefficients of the sub-patch containing (u, v) at level m, the local
+    /// parameter t and the level's size s (the factor of face derivatives). m is clamped to
+    /// the tile's levels.
+    template <typename real>
+    glm::mat<3, 3, real> subpatch(int tile, int m, glm::vec<2, real> uv, glm::vec<2, real>& t, real& s) const {
+        const Tile& tl = tiles.at(static_cast<std::size_t>(tile));
+        m = std::min(std::max(m, 0), tl.k - 1);
+        glm::ivec2 cell;
+        t = kern::dmSubpatch(uv, tl.levelSize(m), cell);
+        s = static_cast<real>(tl.levelSize(m));
+        glm::mat<3, 3, real> c;
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) c[i][j] = static_cast<real>(tl.at(m, cell.x + i, cell.y + j));
+        return c;
+    }
+
+    /// D at (u, v) of a tile's level m.
+    template <typename real> real evaluate(int tile, int m, glm::vec<2, real> uv) const {
+        glm::vec<2, real> t;
+        real s;
+        auto c = subpatch(tile, m, uv, t, s);
+        return kern::dmBiquadratic(c, t);
+    }
+    /// (D, D_u, D_v) with respect to the face's (u, v) (factor s of the level applied).
+    template <typename real> glm::vec<3, real> evaluateD1(int tile, int m, glm::vec<2, real> uv) const {
+        glm::vec<2, real> t;
+        real s;
+        auto c = subpatch(tile, m, uv, t, s);
+        return kern::dmTileD1(c, t, static_cast<int>(s));
+    }
+    /// (D_uu, D_uv, D_vv) with respect to the face's (u, v).
+    template <typename real> glm::vec<3, real> evaluateD2(int tile, int m, glm::vec<2, real> uv) const {
+        glm::vec<2, real> t;
+        real s;
+        auto c = subpatch(tile, m, uv, t, s);
+        return kern::dmBiquadraticD2(c, t) * (s * s);
+    }
+
+    /// Packs every tile into one texture (shelf packing, tallest first) and writes the patch
+    /// records. Throws ArgumentError if the texture would exceed the 16-bit offsets.
+    PackedTiles pack() const;
+};
+
+inline PackedTiles TileSet::pack() const {
+    PackedTiles out;
+    if (tiles.empty()) return out;
+    std::vector<int> order(tiles.size());
+    std::size_t area = 0;
+    int widest = 0;
+    for (std::size_t i = 0; i < tiles.size(); ++i) {
+        order[i] = static_cast<int>(i);
+        glm::ivec2 fp = kern::dmTileFootprint(tiles[i].k);
+        area += static_cast<std::size_t>(fp.x) * static_cast<std::size_t>(fp.y);
+        widest = std::max(widest, fp.x);
+        const double s = tiles[i].size();
+        out.paperTexels += static_cast<std::size_t>((1.5 * s + 4.0) * (s + 2.0));
+    }
+    out.usedTexels = area;
+    // Stable order: larger tiles first, then by face id, so the layout is deterministic.
+    std::stable_sort(order.begin(), order.end(),
+                     [&](int a, int b) { return tiles[static_cast<std::size_t>(a)].k > tiles[static_cast<std::size_t>(b)].k; });
+    const int width = std::max(widest, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(area) * 1.1))));
+    std::vector<glm::ivec2> at(tiles.size());
+    int x = 0, y = 0, shelf = 0;
+    for (int id : order) {
+        glm::ivec2 fp = kern::dmTileFootprint(tiles[static_cast<std::size_t>(id)].k);
+        if (x + fp.x > width) {
+            x = 0;
+            y += shelf;
+            shelf = 0;
+        }
+        at[static_cast<std::size_t>(id)] = glm::ivec2(x, y);
+        x += fp.x;
+        shelf = std::max(shelf, fp.y);
+    }
+    out.width = width;
+    out.height = y + shelf;
+    if (out.width > 65535 || out.height > 65535)
+        throw ArgumentError("tile set too large to pack: " + std::to_string(out.width) + " x " +
+                            std::to_string(out.height) + " texels exceeds the 16-bit patch record offsets");
+    out.texels.assign(static_cast<std::size_t>(out.width) * static_cast<std::size_t>(out.height), 0.0f);
+    out.records.resize(tiles.size());
+    for (std::size_t i = 0; i < tiles.size(); ++i) {
+        const Tile& t = tiles[i];
+        for (int m = 0; m < t.k; ++m) {
+            glm::ivec2 o = at[i] + kern::dmMipOffset(t.k, m);
+            const int n = t.levelSize(m) + 2;
+            for (int b = 0; b < n; ++b)
+                for (int a = 0; a < n; ++a)
+                    out.texels[static_cast<std::size_t>(o.y + b) * static_cast<std::size_t>(out.width) +
+                               static_cast<std::size_t>(o.x + a)] = t.at(m, a, b);
+        }
+        PatchRecord& r = out.records[i];
+        r.globalTextureOffsetXY[0] = static_cast<std::uint16_t>(at[i].x);
+        r.globalTextureOffsetXY[1] = static_cast<std::uint16_t>(at[i].y);
+        r.localDomainOffsetXY[0] = r.localDomainOffsetXY[1] = 0;
+        r.tileSize = static_cast<std::uint16_t>(t.size());
+        r.rotation = 0;
+        for (int c = 0; c < 4; ++c) r.tileSizeDifferences[c] = t.sizeDifferences[static_cast<std::size_t>(c)];
+    }
+    return out;
+}
+
+} // namespace dispmap

@@ -1,0 +1,300 @@
+#pragma once
+// The mesostructure marchers on the CPU, in float or double (kernels/meso.h has the voxel
+// space and every step rule; this file only fetches what each step needs, exactly as
+// shaders/meso/march.glsl does on the GPU, so that both give the same hits and counts).
+//
+// A ray is (o, d) in voxel space, d of unit length, usually o on the top plane z = L where
+// the base surface is; MesoHit::t is the parameter of the hit o + t d. `iterations` counts
+// the loop's rounds: one map fetch each (a distance sample set, a DDM value plus a quadric
+// where it is 0, or a height cell).
+#include <cmath>
+#include <limits>
+
+#include "dispmap/meso/compression.h"
+#include "dispmap/meso/ddm.h"
+#include "dispmap/meso/distance_map.h"
+#include "dispmap/meso/height_field.h"
+#include "dispmap/meso/quadrics.h"
+
+namespace dispmap {
+
+struct MesoHit {
+    bool hit = false; ///< false: the ray left through the top (view: a miss; shadow: lit)
+    double t = 0;
+    int iterations = 0;
+    glm::dvec3 point(const glm::dvec3& o, const glm::dvec3& d) const { return o + t * d; }
+};
+
+/// The tolerance of the root solver's tangent band (kernels/meso.h, dmQuadraticRoots).
+template <class real> constexpr real mesoRootTolerance() { return real(16) * std::numeric_limits<real>::epsilon(); }
+
+namespace detail {
+template <class real> using v3 = glm::vec<3, real, glm::defaultp>;
+template <class real> using v4 = glm::vec<4, real, glm::defaultp>;
+inline void checkRay(const glm::dvec3& o, const glm::dvec3& d, const char* what) {
+    const double l = glm::length(d);
+    if (!std::isfinite(o.x + o.y + o.z) || !std::isfinite(l) || std::abs(l - 1.0) > 1e-6)
+        throw ArgumentError(std::string(what) + ": the ray needs a finite origin and a unit direction");
+}
+} // namespace detail
+
+/// The exact reference: the ray against the bilinear height field column by column (2D DDA),
+/// with the exact root of each column's quadratic (dmRayHeightCell), in `real`. Stops as a miss
+/// when the ray rises through the top or has crossed maxColumns columns.
+template <class real>
+MesoHit marchReference(const MesoHeightField& hf, const glm::dvec3& o0, const glm::dvec3& d0, int maxColumns = 1 << 20) {
+    detail::checkRay(o0, d0, "marchReference");
+    using V3 = detail::v3<real>;
+    const V3 o(o0), d(d0);
+    const real L = static_cast<real>(hf.layers);
+    MesoHit r;
+    real t = 0;
+    if (o.z > L) { // come down to the top plane first
+        if (!(d.z < 0)) return r;
+        t = kern::dmPlaneHit(o, d, L);
+    }
+    const V3 dxy(d.x, d.y, real(0));
+    glm::ivec3 c = kern::dmVoxelAt(V3(o + d * t), d);
+    for (int n = 0; n < maxColumns; ++n) {
+        ++r.iterations;
+        int axis;
+        const real tExit = kern::dmVoxelExit(V3(o.x, o.y, 0), dxy, glm::ivec3(c.x, c.y, 0), axis);
+        const V3 local = (o + d * t) - V3(static_cast<real>(c.x), static_cast<real>(c.y), real(0));
+        real s;
+        const real len = std::max(tExit - t, real(0));
+        if (kern::dmRayHeightCell(local, d, detail::v4<real>(hf.cell(c.x, c.y)), len, mesoRootTolerance<real>(), s)) {
+            r.hit = true;
+            r.t = static_cast<double>(t + s);
+            return r;
+        }
+        if (d.z >= 0 && o.z + d.z * tExit >= L) return r; // rose through the top
+        t = std::max(tExit, t);
+        c = kern::dmVoxelStep(c, d, axis);
+    }
+    return r;
+}
+
+/// Donnelly's sphere tracing: `iterations` steps of the trilinearly read distance, or fewer
+/// when it falls to eps or below (eps < 0: the fixed count, as the chapter's shader, except
+/// that a signed distance at or below eps, deep inside the solid, still stops it).
+/// The hit is where the last step ends; a ray that rose through the top is a miss.
+template <class real> MesoHit marchDistanceMap(const DistanceMap& m, const glm::dvec3& o0, const glm::dvec3& d0, int iterations, double eps) {
+    detail::checkRay(o0, d0, "marchDistanceMap");
+    using V3 = detail::v3<real>;
+    using V4 = detail::v4<real>;
+    const V3 o(o0), d(d0);
+    MesoHit r;
+    real t = 0;
+    int status = 0;
+    for (int i = 0; i < iterations && status == 0; ++i) {
+        V3 f;
+        const glm::ivec3 c = kern::dmDistanceSampleCell(V3(o + d * t), m.layers, f);
+        const auto at = [&](int di, int dj, int dk) { return static_cast<real>(m.at(c.x + di, c.y + dj, c.z + dk)); };
+        const V4 lo(at(0, 0, 0), at(1, 0, 0), at(1, 1, 0), at(0, 1, 0)), hi(at(0, 0, 1), at(1, 0, 1), at(1, 1, 1), at(0, 1, 1));
+        ++r.iterations;
+        status = kern::dmSphereTraceStep(t, kern::dmTrilerp(lo, hi, f), static_cast<real>(eps), o, d, m.layers);
+    }
+    r.hit = status != 2;
+    r.t = static_cast<double>(t);
+    return r;
+}
+
+/// Options of the conservative (directional) marcher.
+struct DdmMarch {
+    int maxIterations = 256;
+    bool quadrics = true; ///< intersect the quadric in voxels whose distance is 0 (else stop there)
+    int exitRule = 1;     ///< 1: step exit(v) + d; 0: the paper's t + d
+};
+
+/// Algorithm 3.1 (sphere tracing a conservative DDM, quadric intersection 3.2, voxel walls
+/// 3.3) over any map with `float distance(int cone, int i, int j, int k)`; quadrics may be
+/// null only when options.quadrics is false. A ray that runs out of iterations counts as a hit
+/// at its last point (short of the surface: conservative), so a shadow ray never leaks light
+/// and a view ray never shows the sky through the surface. ArgumentError for an upward ray on
+/// a map without shadow cones.
+template <class real, class Map>
+MesoHit marchDdm(const Map& map, const ConeSet& cones, int layers, const ColumnQuadrics* quadrics, const glm::dvec3& o0,
+                 const glm::dvec3& d0, const DdmMarch& opt) {
+    detail::checkRay(o0, d0, "marchDdm");
+    if (d0.z > 0 && !cones.isotropic && !cones.shadow) throw ArgumentError("marchDdm: an upward (shadow) ray needs shadow cones");
+    if (opt.quadrics && !quadrics) throw ArgumentError("marchDdm: quadric intersection needs the column quadrics");
+    using V3 = detail::v3<real>;
+    using V4 = detail::v4<real>;
+    const V3 o(o0), d(d0);
+    const int cone = kern::dmConeIndex(d, cones.kernelM(), cones.n);
+    MesoHit r;
+    r.hit = true; // until the ray leaves: running out of iterations is a hit (see above)
+    real t = 0;
+    glm::ivec3 v = kern::dmVoxelAt(o, d);
+    for (int i = 0; i < opt.maxIterations; ++i) {
+        const int slab = kern::dmSlabStatus(v, layers);
+        if (slab != 0) {
+            r.hit = slab == 1;
+            if (r.hit && d.z < 0) t = std::max(t, kern::dmPlaneHit(o, d, real(0)));
+            break;
+        }
+        ++r.iterations;
+        const real dist = static_cast<real>(map.distance(cone, v.x, v.y, v.z));
+        V4 qa(0), qb(0), qc(0, 1, 0, 0); // without quadrics a 0 voxel is the hit
+        if (dist <= 0 && opt.quadrics) {
+            const std::size_t at = 3 * (static_cast<std::size_t>(detail::wrapIndex(v.y, quadrics->height)) *
+                                            static_cast<std::size_t>(quadrics->width) +
+                                        static_cast<std::size_t>(detail::wrapIndex(v.x, quadrics->width)));
+            kern::dmVoxelQuadric(V4(quadrics->q[at]), V4(quadrics->q[at + 1]), V4(quadrics->q[at + 2]), v.z, qa, qb, qc);
+        }
+        const V3 qo(static_cast<real>(v.x), static_cast<real>(v.y), real(0));
+        if (kern::dmDdmStep(t, v, dist, qa, qb, qc, qo, o, d, opt.exitRule, mesoRootTolerance<real>()) == 1) {
+            r.hit = true;
+            break;
+        }
+    }
+    r.t = static_cast<double>(t);
+    return r;
+}
+
+/// The dense map, read directly.
+struct DenseDdmView {
+    const DirectionalDistanceMap* m;
+    float distance(int c, int i, int j, int k) const { return m->at(c, i, j, k); }
+};
+/// The compressed map, read through its grid and atlas (Appendix A.2).
+struct CompressedDdmView {
+    const CompressedDdm* m;
+    float distance(int c, int i, int j, int k) const { return m->lookup(c, i, j, k); }
+};
+
+/// Relief mapping (Policarpo et al. 2005): `linear` equal steps from the top to the bottom
+/// plane until a sample is at or below the surface, then `binary` bisections; the hit is the
+/// final bracket's midpoint. View rays only (d.z < 0).
+/// Parallax occlusion mapping (Tatarchuk 2006) with binary < 0: the same linear search, then
+/// the crossing of the segment between the last two samples.
+template <class real> MesoHit marchHeightSearch(const MesoHeightField& hf, const glm::dvec3& o0, const glm::dvec3& d0, int linear, int binary) {
+    detail::checkRay(o0, d0, "marchHeightSearch");
+    if (!(d0.z < 0)) throw ArgumentError("relief mapping / POM: view rays go down (d.z < 0)");
+    if (linear < 1) throw ArgumentError("relief mapping / POM: at least one linear step");
+    using V3 = detail::v3<real>;
+    using V4 = detail::v4<real>;
+    using V2 = glm::vec<2, real, glm::defaultp>;
+    const V3 o(o0), d(d0);
+    MesoHit r;
+    const auto above = [&](real t) {
+        const V3 p = o + d * t;
+        V2 f;
+        const glm::ivec2 c = kern::dmHeightCell(V2(p.x, p.y), f);
+        ++r.iterations;
+        return kern::dmHeightAbove(p, V4(hf.cell(c.x, c.y)), f);
+    };
+    const real tEnd = kern::dmPlaneHit(o, d, real(0));
+    const real dt = tEnd / static_cast<real>(linear);
+    V2 bracket(0, dt);
+    real abovePrev = binary < 0 ? above(real(0)) : real(0);
+    real aboveCur = 0;
+    for (int i = 0; i < linear; ++i) {
+        aboveCur = above(bracket.y);
+        const real keep = aboveCur;
+        if (kern::dmLinearSearchStep(bracket, dt, aboveCur)) break;
+        abovePrev = keep;
+    }
+    r.hit = true;
+    if (binary < 0) {
+        r.t = static_cast<double>(kern::dmPomIntersect(bracket, abovePrev, aboveCur));
+        return r;
+    }
+    for (int j = 0; j < binary; ++j) bracket = kern::dmBisectStep(bracket, above(real(0.5) * (bracket.x + bracket.y)));
+    r.t = static_cast<double>(real(0.5) * (bracket.x + bracket.y));
+    return r;
+}
+
+/// Every map the marchers read, built from one height field (what `dispmap meso` builds and
+/// the GPU renderer uploads). A map a scene does not need is not built: its sizes are set and
+/// its data left empty (the flags below; mesoMapOptionsFor picks them from a technique).
+struct MesoMapOptions {
+    ConeSet cones{4, 1, true, false}; ///< view and shadow cones of the DDM
+    int block = 4;                    ///< compression block size (must divide the sizes)
+    int distanceSubsamples = 4;       ///< Donnelly's map: column-model samples per texel
+    bool distance = true, ddm = true, quadrics = true;
+};
+struct MesoMaps {
+    MesoHeightField field;
+    DistanceMap distance;
+    CompressedDdm ddm;
+    ColumnQuadrics quadrics;
+    std::size_t denseDdmBytes = 0;
+};
+inline MesoMaps buildMesoMaps(const MesoHeightField& field, const MesoMapOptions& options = {}) {
+    MesoMaps m;
+    m.field = field;
+    if (options.distance) {
+        m.distance = buildDistanceMap(field, options.distanceSubsamples);
+    } else {
+        m.distance.width = field.width;
+        m.distance.height = field.height;
+        m.distance.layers = field.layers;
+    }
+    if (options.ddm) {
+        const DirectionalDistanceMap dense = buildDdm(field, options.cones);
+        m.denseDdmBytes = dense.bytes();
+        m.ddm = compressDdm(dense, options.block);
+    } else {
+        options.cones.validate();
+        CompressedDdm& c = m.ddm;
+        c.width = field.width;
+        c.height = field.height;
+        c.layers = field.layers;
+        c.block = options.block;
+        c.cones = options.cones;
+    }
+    if (options.quadrics) {
+        m.quadrics = buildColumnQuadrics(field);
+    } else {
+        m.quadrics.width = field.width;
+        m.quadrics.height = field.height;
+    }
+    return m;
+}
+
+/// A marcher and its knobs.
+enum class MesoMethod { DistanceMap, Ddm, Relief, Pom };
+struct MesoTechnique {
+    MesoMethod method = MesoMethod::Ddm;
+    int iterations = 64; ///< DistanceMap: the step count (eps < 0) or cap; Ddm: the cap
+    double eps = -1;     ///< DistanceMap: stop when the distance is <= eps (< 0: fixed count)
+    bool quadrics = true; ///< Ddm: quadric intersection in 0 voxels
+    int exitRule = 1;     ///< Ddm: 1 exit(v) + d, 0 the paper's t + d
+    int linear = 32;      ///< Relief / POM: linear steps
+    int binary = 6;       ///< Relief: bisections (POM ignores it)
+};
+
+/// The maps `technique` reads (and the shadow rays' DDM with shadow cones and quadrics when
+/// `shadows`), nothing else.
+inline MesoMapOptions mesoMapOptionsFor(const MesoTechnique& technique, bool shadows, ConeSet cones = {4, 1, false, false}) {
+    MesoMapOptions o;
+    cones.shadow = shadows;
+    o.cones = cones;
+    o.distance = technique.method == MesoMethod::DistanceMap;
+    o.ddm = technique.method == MesoMethod::Ddm || shadows;
+    o.quadrics = (technique.method == MesoMethod::Ddm && technique.quadrics) || shadows;
+    return o;
+}
+
+/// One ray through `maps` by `technique`, in `real`.
+template <class real> MesoHit marchMeso(const MesoMaps& maps, const MesoTechnique& tq, const glm::dvec3& o, const glm::dvec3& d) {
+    switch (tq.method) {
+    case MesoMethod::DistanceMap:
+        return marchDistanceMap<real>(maps.distance, o, d, tq.iterations, tq.eps);
+    case MesoMethod::Ddm: {
+        DdmMarch opt;
+        opt.maxIterations = tq.iterations;
+        opt.quadrics = tq.quadrics;
+        opt.exitRule = tq.exitRule;
+        return marchDdm<real>(CompressedDdmView{&maps.ddm}, maps.ddm.cones, maps.field.layers, &maps.quadrics, o, d, opt);
+    }
+    case MesoMethod::Relief:
+        return marchHeightSearch<real>(maps.field, o, d, tq.linear, tq.binary);
+    case MesoMethod::Pom:
+        return marchHeightSearch<real>(maps.field, o, d, tq.linear, -1);
+    }
+    throw ArgumentError("marchMeso: unknown method");
+}
+
+} // namespace dispmap

@@ -1,0 +1,370 @@
+#pragma once
+// Non-height-field mesostructure (Mehra & Kumar §3.1, "non height-field"; Donnelly §8.3,
+// "chain mail could be rendered in this manner"): a closed triangle mesh (beads, rings,
+// overhangs) standing on the slab's floor, in the voxel space of kernels/meso.h (x and y
+// periodic, the solid also filling z < 0).
+//
+// The mesh is voxelised into S^3 sub-voxels per voxel: a sub-voxel is solid when its centre is
+// inside the mesh (parity of the crossings of a vertical line) or a triangle may pass through
+// it (its plane passes within the sub-voxel's half diagonal and its bounding box meets it: a
+// superset of the true overlaps, so the bounds below stay bounds). From that:
+//  * buildSolidDistanceMap: Donnelly's signed map, FH's exact transform in 3D over the
+//    sub-voxel centres (approximate for the mesh: half a sub-voxel of offset and the
+//    voxelisation; as in the chapter, no bound);
+//  * buildSolidDdm: the conservative DDM over the solid sub-voxel boxes and the floor (the
+//    same box bound and cone test as the height-field builder), searched in shells of voxels;
+//  * marchDdmSolid: Algorithm 3.1 where a voxel whose distance is 0 tests the ray exactly
+//    against the triangles listed for it (CPU; the GPU renderer draws height fields).
+#include <array>
+
+#include "dispmap/meso/march.h"
+
+namespace dispmap {
+
+struct MesoSolid {
+    int width = 0, height = 0, layers = 0, sub = 2;
+    std::vector<std::uint8_t> solid;           ///< [z][y][x] over the sub-voxel grid
+    std::vector<std::uint8_t> voxelSolid;      ///< any solid sub-voxel, per voxel [k][j][i]
+    std::vector<glm::dvec3> vertices;          ///< voxel space
+    std::vector<std::array<int, 3>> triangles;
+    std::vector<std::vector<int>> voxelTriangles; ///< triangles that may cross voxel [k][j][i]
+
+    std::size_t voxelIndex(int i, int j, int k) const {
+        return (static_cast<std::size_t>(k) * static_cast<std::size_t>(height) + static_cast<std::size_t>(detail::wrapIndex(j, height))) *
+                   static_cast<std::size_t>(width) +
+               static_cast<std::size_t>(detail::wrapIndex(i, width));
+    }
+    bool subSolid(int x, int y, int z) const {
+        if (z < 0) return true;
+        if (z >= layers * sub) return false;
+        const int fw = width * sub, fh = height * sub;
+        return solid[(static_cast<std::size_t>(z) * static_cast<std::size_t>(fh) + static_cast<std::size_t>(detail::wrapIndex(y, fh))) *
+                         static_cast<std::size_t>(fw) +
+                     static_cast<std::size_t>(detail::wrapIndex(x, fw))] != 0;
+    }
+    double solidShare() const {
+        std::size_t n = 0;
+        for (std::uint8_t v : solid) n += v;
+        return static_cast<double>(n) / static_cast<double>(std::max<std::size_t>(solid.size(), 1));
+    }
+};
+
+/// Voxelises a closed mesh. `vertices` in any unit: x and y of their bounding box are scaled
+/// uniformly onto one tile of width x height voxels (the larger extent fills it), z by the same
+/// scale from its lowest point at z = `floorGap` voxels up. ArgumentError for no triangles,
+/// indices out of range, non-finite or degenerate (zero-extent) vertices, a mesh too tall
+/// for the layers.
+inline MesoSolid mesoSolidFromMesh(const std::vector<glm::dvec3>& vertices, const std::vector<std::array<int, 3>>& triangles, int width,
+                                   int height, int layers, int sub = 2, double floorGap = 0.0) {
+    detail::checkMesoSize("mesh mesostructure", width, height, layers);
+    if (sub < 1 || sub > 8) throw ArgumentError("mesh mesostructure: sub-voxels " + std::to_string(sub) + " not in 1..8");
+    if (triangles.empty()) throw ArgumentError("mesh mesostructure: the mesh has no triangles");
+    glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+    for (const glm::dvec3& v : vertices) {
+        if (!std::isfinite(v.x + v.y + v.z)) throw ArgumentError("mesh mesostructure: a vertex is not finite");
+        lo = glm::min(lo, v);
+        hi = glm::max(hi, v);
+    }
+    for (const auto& t : triangles)
+        for (int i : t)
+            if (i < 0 || static_cast<std::size_t>(i) >= vertices.size())
+                throw ArgumentError("mesh mesostructure: vertex index " + std::to_string(i) + " out of range");
+    const glm::dvec3 ext = hi - lo;
+    if (!(ext.x > 0 && ext.y > 0 && ext.z > 0)) throw ArgumentError("mesh mesostructure: the mesh is flat (degenerate bounding box)");
+    const double scale = std::min(width / ext.x, height / ext.y);
+    if (ext.z * scale + floorGap > layers)
+        throw ArgumentError("mesh mesostructure: the mesh is " + std::to_string(ext.z * scale + floorGap) + " voxels tall, more than " +
+                            std::to_string(layers) + " layers");
+    MesoSolid s;
+    s.width = width;
+    s.height = height;
+    s.layers = layers;
+    s.sub = sub;
+    s.triangles = triangles;
+    for (const glm::dvec3& v : vertices) s.vertices.push_back(glm::dvec3((v.x - lo.x) * scale, (v.y - lo.y) * scale, (v.z - lo.z) * scale + floorGap));
+    const int fw = width * sub, fh = height * sub, fz = layers * sub;
+    const double h = 1.0 / sub;
+    s.solid.assign(static_cast<std::size_t>(fw) * static_cast<std::size_t>(fh) * static_cast<std::size_t>(fz), 0);
+    const auto mark = [&](int x, int y, int z) {
+        if (z < 0 || z >= fz) return;
+        s.solid[(static_cast<std::size_t>(z) * static_cast<std::size_t>(fh) + static_cast<std::size_t>(detail::wrapIndex(y, fh))) *
+                    static_cast<std::size_t>(fw) +
+                static_cast<std::size_t>(detail::wrapIndex(x, fw))] = 1;
+    };
+    // Inside: parity of the crossings of the vertical line through each sub-voxel centre.
+    std::vector<double> zs;
+    for (int y = 0; y < fh; ++y)
+        for (int x = 0; x < fw; ++x) {
+            const double px = (x + 0.5) * h, py = (y + 0.5) * h;
+            zs.clear();
+            for (const auto& t : s.triangles) {
+                const glm::dvec3 &a = s.vertices[static_cast<std::size_t>(t[0])], &b = s.vertices[static_cast<std::size_t>(t[1])],
+                                 &c = s.vertices[static_cast<std::size_t>(t[2])];
+                const double d = (b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y);
+                if (d == 0) continue;
+                const double u = ((px - a.x) * (c.y - a.y) - (c.x - a.x) * (py - a.y)) / d;
+                const double v = ((b.x - a.x) * (py - a.y) - (px - a.x) * (b.y - a.y)) / d;
+                if (u < 0 || v < 0 || u + v > 1) continue;
+                zs.push_back(a.z + u * (b.z - a.z) + v * (c.z - a.z));
+            }
+            std::sort(zs.begin(), zs.end());
+            // A line through a shared edge or vertex meets each triangle there: one crossing.
+            zs.erase(std::unique(zs.begin(), zs.end(), [](double a, double b) { return b - a <= 1e-9; }), zs.end());
+            for (std::size_t k = 0; k + 1 < zs.size(); k += 2)
+                for (int z = std::max(0, static_cast<int>(std::floor(zs[k] / h))); z < fz && (z + 0.5) * h <= zs[k + 1]; ++z)
+                    if ((z + 0.5) * h >= zs[k]) mark(x, y, z);
+        }
+    // Surface: sub-voxels (and voxels) the triangle's plane passes near, inside its box.
+    s.voxelTriangles.resize(static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * static_cast<std::size_t>(layers));
+    for (std::size_t ti = 0; ti < s.triangles.size(); ++ti) {
+        const auto& t = s.triangles[ti];
+        const glm::dvec3 &a = s.vertices[static_cast<std::size_t>(t[0])], &b = s.vertices[static_cast<std::size_t>(t[1])],
+                         &c = s.vertices[static_cast<std::size_t>(t[2])];
+        glm::dvec3 n = glm::cross(b - a, c - a);
+        const double nl = glm::length(n);
+        if (!(nl > 0)) continue; // a degenerate triangle covers nothing
+        n /= nl;
+        const glm::dvec3 tlo = glm::min(a, glm::min(b, c)), thi = glm::max(a, glm::max(b, c));
+        const auto visit = [&](double cell, const auto& fn) {
+            const glm::ivec3 i0(glm::floor(tlo / cell)), i1(glm::floor(thi / cell));
+            const double reach = 0.5 * std::sqrt(3.0) * cell;
+            for (int z = i0.z; z <= i1.z; ++z)
+                for (int y = i0.y; y <= i1.y; ++y)
+                    for (int x = i0.x; x <= i1.x; ++x)
+                        if (std::abs(glm::dot(n, (glm::dvec3(x, y, z) + 0.5) * cell - a)) <= reach) fn(x, y, z);
+        };
+        visit(h, mark);
+        visit(1.0, [&](int x, int y, int z) {
+            if (z >= 0 && z < layers) s.voxelTriangles[s.voxelIndex(x, y, z)].push_back(static_cast<int>(ti));
+        });
+    }
+    s.voxelSolid.assign(s.voxelTriangles.size(), 0);
+    for (int z = 0; z < fz; ++z)
+        for (int y = 0; y < fh; ++y)
+            for (int x = 0; x < fw; ++x)
+                if (s.subSolid(x, y, z)) s.voxelSolid[s.voxelIndex(x / sub, y / sub, z / sub)] = 1;
+    return s;
+}
+
+/// Appends a closed UV sphere (outward triangles, n rings) of radius r at c: a bead.
+inline void appendUvSphere(glm::dvec3 c, double r, int n, std::vector<glm::dvec3>& v, std::vector<std::array<int, 3>>& t) {
+    const int base = static_cast<int>(v.size());
+    v.push_back(c + glm::dvec3(0, 0, -r));
+    for (int i = 1; i < n; ++i)
+        for (int j = 0; j < 2 * n; ++j) {
+            const double th = 3.14159265358979323846 * i / n, ph = 3.14159265358979323846 * j / n;
+            v.push_back(c + r * glm::dvec3(std::sin(th) * std::cos(ph), std::sin(th) * std::sin(ph), -std::cos(th)));
+        }
+    v.push_back(c + glm::dvec3(0, 0, r));
+    const int top = static_cast<int>(v.size()) - 1;
+    const auto id = [&](int i, int j) { return base + 1 + (i - 1) * 2 * n + (j % (2 * n)); };
+    for (int j = 0; j < 2 * n; ++j) t.push_back({base, id(1, j + 1), id(1, j)});
+    for (int i = 1; i + 1 < n; ++i)
+        for (int j = 0; j < 2 * n; ++j) {
+            t.push_back({id(i, j), id(i, j + 1), id(i + 1, j + 1)});
+            t.push_back({id(i, j), id(i + 1, j + 1), id(i + 1, j)});
+        }
+    for (int j = 0; j < 2 * n; ++j) t.push_back({id(n - 1, j), id(n - 1, j + 1), top});
+}
+
+/// Donnelly's signed map of the solid: the samples at (i, j, k + 1/2) read the exact distance
+/// between the sub-voxel centre next to them and the nearest solid (outside) or empty (inside,
+/// negative) sub-voxel centre, the floor z < 0 being solid.
+inline DistanceMap buildSolidDistanceMap(const MesoSolid& s) {
+    detail::checkMesoSize("solid distance map", s.width, s.height, s.layers);
+    const int S = s.sub, fw = s.width * S, fh = s.height * S, fz = s.layers * S;
+    const std::size_t n = static_cast<std::size_t>(fw) * static_cast<std::size_t>(fh) * static_cast<std::size_t>(fz);
+    const double inf = std::numeric_limits<double>::infinity();
+    std::vector<double> out(n), in(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        out[i] = s.solid[i] ? 0.0 : inf;
+        in[i] = s.solid[i] ? inf : 0.0;
+    }
+    const auto transform = [&](std::vector<double>& g, bool floorSolid) {
+        for (int z = 0; z < fz; ++z) squaredDistanceTransform2D(g.data() + static_cast<std::ptrdiff_t>(z) * fw * fh, fw, fh);
+        // z is not periodic: one line per column, with the floor as a feature below z = 0.
+        const std::size_t zn = static_cast<std::size_t>(std::max(fz, 1)) + 1; // fz >= 2 (checked): the max tells GCC
+        std::vector<double> f(zn), d(zn), zz(zn + 1);
+        std::vector<int> v(zn);
+        for (int y = 0; y < fh; ++y)
+            for (int x = 0; x < fw; ++x) {
+                f[0] = floorSolid ? 0.0 : inf;
+                for (int z = 0; z < fz; ++z) f[static_cast<std::size_t>(z) + 1] = g[(static_cast<std::size_t>(z) * static_cast<std::size_t>(fh) + static_cast<std::size_t>(y)) * static_cast<std::size_t>(fw) + static_cast<std::size_t>(x)];
+                distanceTransform1D(f.data(), fz + 1, 1.0, d.data(), v.data(), zz.data());
+                for (int z = 0; z < fz; ++z) g[(static_cast<std::size_t>(z) * static_cast<std::size_t>(fh) + static_cast<std::size_t>(y)) * static_cast<std::size_t>(fw) + static_cast<std::size_t>(x)] = d[static_cast<std::size_t>(z) + 1];
+            }
+    };
+    transform(out, true);
+    transform(in, false);
+    DistanceMap m;
+    m.width = s.width;
+    m.height = s.height;
+    m.layers = s.layers;
+    m.subsamples = S;
+    m.d.resize(static_cast<std::size_t>(s.width) * static_cast<std::size_t>(s.height) * static_cast<std::size_t>(s.layers));
+    for (int k = 0; k < s.layers; ++k)
+        for (int j = 0; j < s.height; ++j)
+            for (int i = 0; i < s.width; ++i) {
+                const std::size_t at = (static_cast<std::size_t>(k * S + S / 2) * static_cast<std::size_t>(fh) + static_cast<std::size_t>(j * S)) *
+                                           static_cast<std::size_t>(fw) +
+                                       static_cast<std::size_t>(i * S);
+                m.d[s.voxelIndex(i, j, k)] = static_cast<float>(out[at] > 0 ? std::sqrt(out[at]) / S : -std::sqrt(in[at]) / S);
+            }
+    return m;
+}
+
+/// The conservative DDM of the solid (see the top of this file). Cap default: `layers`.
+inline DirectionalDistanceMap buildSolidDdm(const MesoSolid& s, const ConeSet& cones, float cap = 0) {
+    cones.validate();
+    if (!(cap >= 0) || !std::isfinite(cap)) throw ArgumentError("directional distance map: cap must be finite and >= 0");
+    DirectionalDistanceMap m;
+    m.width = s.width;
+    m.height = s.height;
+    m.layers = s.layers;
+    m.cones = cones;
+    m.cap = cap > 0 ? cap : static_cast<float>(s.layers);
+    m.d.assign(static_cast<std::size_t>(cones.count()) * s.voxelSolid.size(), m.cap);
+    const int S = s.sub;
+    const double h = 1.0 / S, bottom = -4.0 * s.layers - 1.0;
+    detail::parallelLayers(s.layers, [&](int k) {
+        for (int c = 0; c < cones.count(); ++c) {
+            double az[2], el[2];
+            cones.range(c, az, el);
+            for (int j = 0; j < s.height; ++j)
+                for (int i = 0; i < s.width; ++i) {
+                    double best = m.cap;
+                    // The floor.
+                    const detail::Box floorBox{{-1e9, -1e9, bottom - (k + 1.0)}, {1e9, 1e9, 0.0 - k}};
+                    if (detail::boxMeetsCone(floorBox, az, el)) best = std::min(best, detail::boxDistance(floorBox));
+                    const int maxShell = static_cast<int>(std::ceil(best)) + 1;
+                    for (int r = 0; r <= maxShell && r - 1 < best; ++r)
+                        for (int dk = -r; dk <= r; ++dk) {
+                            const int vk = k + dk;
+                            if (vk < 0 || vk >= s.layers) continue;
+                            for (int dj = -r; dj <= r; ++dj)
+                                for (int di = -r; di <= r; ++di) {
+                                    if (std::max({std::abs(di), std::abs(dj), std::abs(dk)}) != r) continue;
+                                    if (!s.voxelSolid[s.voxelIndex(i + di, j + dj, vk)]) continue;
+                                    const detail::Box vb{{di - 1.0, dj - 1.0, dk - 1.0}, {di + 1.0, dj + 1.0, dk + 1.0}};
+                                    if (detail::boxDistance(vb) >= best || !detail::boxMeetsCone(vb, az, el)) continue;
+                                    for (int e = 0; e < S * S * S; ++e) {
+                                        const int a = e % S, b = e / S % S, z = e / (S * S);
+                                        if (!s.subSolid((i + di) * S + a, (j + dj) * S + b, vk * S + z)) continue;
+                                        const glm::dvec3 l(di + a * h, dj + b * h, dk + z * h);
+                                        const detail::Box D{l - 1.0, l + h};
+                                        const double dist = detail::boxDistance(D);
+                                        if (dist < best && detail::boxMeetsCone(D, az, el)) best = dist;
+                                    }
+                                }
+                        }
+                    m.d[m.index(c, i, j, k)] = detail::floatBelow(best);
+                }
+        }
+    });
+    return m;
+}
+
+/// The exact first hit of o + t d, t in [t0, t1], on the triangles listed for voxel v (their
+/// copies across the periodic seam: the voxel's unwrapped position shifts them), Möller-Trumbore.
+template <class real>
+bool raySolidVoxel(const MesoSolid& s, const glm::ivec3& v, const glm::dvec3& o, const glm::dvec3& d, double t0, double t1, double& t) {
+    const glm::dvec3 shift(std::floor(static_cast<double>(v.x) / s.width) * s.width, std::floor(static_cast<double>(v.y) / s.height) * s.height, 0);
+    bool hit = false;
+    t = t1;
+    for (int ti : s.voxelTriangles[s.voxelIndex(v.x, v.y, v.z)]) {
+        const auto& tri = s.triangles[static_cast<std::size_t>(ti)];
+        const glm::dvec3 a = s.vertices[static_cast<std::size_t>(tri[0])] + shift;
+        const glm::dvec3 e1 = s.vertices[static_cast<std::size_t>(tri[1])] + shift - a, e2 = s.vertices[static_cast<std::size_t>(tri[2])] + shift - a;
+        // The triangle may lie in the neighbouring tile of the one v is in: try the three shifts
+        // along each axis that put its box near v.
+        for (int sy = -1; sy <= 1; ++sy)
+            for (int sx = -1; sx <= 1; ++sx) {
+                const glm::dvec3 q = a + glm::dvec3(sx * s.width, sy * s.height, 0);
+                const glm::dvec3 p = glm::cross(d, e2);
+                const double det = glm::dot(e1, p);
+                if (std::abs(det) < 1e-300) continue;
+                const glm::dvec3 w = o - q;
+                const double u = glm::dot(w, p) / det;
+                if (u < 0 || u > 1) continue;
+                const glm::dvec3 qq = glm::cross(w, e1);
+                const double vv = glm::dot(d, qq) / det;
+                if (vv < 0 || u + vv > 1) continue;
+                const double tt = glm::dot(e2, qq) / det;
+                if (tt >= t0 && tt <= t) {
+                    t = tt;
+                    hit = true;
+                }
+            }
+    }
+    return hit;
+}
+
+/// Algorithm 3.1 over the solid's (dense or compressed) DDM with exact triangle tests in the
+/// voxels whose distance is 0; the floor z = 0 is a hit. In double: the triangles are the
+/// reference's own.
+template <class Map>
+MesoHit marchDdmSolid(const Map& map, const ConeSet& cones, const MesoSolid& s, const glm::dvec3& o, const glm::dvec3& d, int maxIterations = 1024,
+                      int exitRule = 1) {
+    detail::checkRay(o, d, "marchDdmSolid");
+    if (d.z > 0 && !cones.isotropic && !cones.shadow) throw ArgumentError("marchDdmSolid: an upward (shadow) ray needs shadow cones");
+    const int cone = kern::dmConeIndex(d, cones.kernelM(), cones.n);
+    MesoHit r;
+    r.hit = true; // running out of iterations is a hit at the last point, as in marchDdm
+    double t = 0;
+    glm::ivec3 v = kern::dmVoxelAt(o, d);
+    const glm::dvec4 none(0), miss(0, -1, 0, 0);
+    for (int i = 0; i < maxIterations; ++i) {
+        const int slab = kern::dmSlabStatus(v, s.layers);
+        if (slab != 0) {
+            r.hit = slab == 1;
+            if (r.hit && d.z < 0) t = std::max(t, kern::dmPlaneHit(o, d, 0.0));
+            break;
+        }
+        ++r.iterations;
+        const double dist = map.distance(cone, v.x, v.y, v.z);
+        if (dist <= 0) {
+            int axis;
+            const double tExit = kern::dmVoxelExit(o, d, v, axis);
+            double th;
+            if (raySolidVoxel<double>(s, v, o, d, t, std::max(tExit, t), th)) {
+                r.hit = true;
+                t = th;
+                break;
+            }
+        }
+        kern::dmDdmStep(t, v, dist, none, none, miss, glm::dvec3(0), o, d, exitRule, mesoRootTolerance<double>());
+    }
+    r.t = t;
+    return r;
+}
+
+/// The exact reference for the solid: every voxel along the ray (3D DDA), its triangles, the floor.
+inline MesoHit marchSolidReference(const MesoSolid& s, const glm::dvec3& o, const glm::dvec3& d, int maxVoxels = 1 << 20) {
+    detail::checkRay(o, d, "marchSolidReference");
+    MesoHit r;
+    double t = 0;
+    glm::ivec3 v = kern::dmVoxelAt(o, d);
+    for (int i = 0; i < maxVoxels; ++i) {
+        const int slab = kern::dmSlabStatus(v, s.layers);
+        if (slab != 0) {
+            r.hit = slab == 1;
+            if (r.hit && d.z < 0) t = std::max(t, kern::dmPlaneHit(o, d, 0.0));
+            break;
+        }
+        ++r.iterations;
+        int axis;
+        const double tExit = kern::dmVoxelExit(o, d, v, axis);
+        double th;
+        if (raySolidVoxel<double>(s, v, o, d, t, std::max(tExit, t), th)) {
+            r.hit = true;
+            t = th;
+            break;
+        }
+        t = std::max(t, tExit);
+        v = kern::dmVoxelStep(v, d, axis);
+    }
+    r.t = t;
+    return r;
+}
+
+} // namespace dispmap

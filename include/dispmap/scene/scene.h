@@ -1,0 +1,425 @@
+#pragma once
+// Scene files: what the renderer draws, as JSON (reading and writing them; building the mesh
+// and tiles a scene names is scene/build.h). A control mesh (built-in or OBJ), its
+// displacement (procedural, a UV-mapped height image, or a saved tile file), a camera, lights,
+// the output size and the effects (technique, normals, level of detail, tessellation).
+//
+//   { "mesh": "builtin:box", "isolation": 6,
+//     "displacement": {"function": "waves", "height": "", "tiles": "", "scale": 0.07, "offset": 0,
+//                      "wrap": false, "k": 5, "mixedSizes": false, "filter": "haar"},
+//     "camera": {"eye": [2.6, 2.0, 3.4], "target": [0, 0, 0], "up": [0, 1, 0], "fovY": 40,
+//                "near": 0.05, "far": 100},
+//     "lights": [{"direction": [0.4, 0.8, 0.5], "color": [1, 1, 1]}],
+//     "ambient": 0.15, "albedo": [0.8, 0.78, 0.74], "background": [0, 0, 0],
+//     "resolution": [320, 240], "baselineTexels": 0,
+//     "effects": {"technique": "displaced", "normals": "approximate", "autoTolerance": 2,
+//                 "lod": "tessfactor", "wireframe": false,
+//                 "tessellation": {"method": "uniform", "value": 8, "max": 64,
+//                                  "spacing": "fractional_even"}} }
+//
+// Every key is optional (the defaults are the member initialisers below); comments (// and
+// /* */) are allowed. Everything else is a SceneError naming the scene and the key path
+// (`scene 'x.json': effects.normals: unknown value 'fancy' (approximate, accurate, auto)`):
+// invalid JSON, a wrong type, an unknown key anywhere, a number out of range or not finite
+// (1e999 parses as infinity), a camera whose eye equals its target or whose up is parallel to
+// the view direction, a zero light direction, and a height image together with a tile file.
+// Relative paths (mesh, height, tiles) are resolved against the scene file's directory.
+//
+// Tessellation factors (Nießner & Loop 2013, §6.1; kernels/lod.h): "uniform" uses `value` as
+// the factor; "distance", "edge" and "area" use it as the constant c of dmTessFactorDistance,
+// dmTessFactorEdge and dmTessFactorArea; all are clamped to `max` (1..64, the hardware limit).
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <initializer_list>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include <glm/glm.hpp>
+#include <nlohmann/json.hpp>
+
+#include "dispmap/surface/builtin.h"
+#include "dispmap/surface/displaced_surface.h"
+#include "dispmap/surface/draw.h"
+#include "dispmap/core/error.h"
+#include "dispmap/core/file_io.h"
+
+namespace dispmap {
+
+/// A scene file that is not valid JSON, or whose content is out of its documented range.
+class SceneError : public ArgumentError {
+  public:
+    using ArgumentError::ArgumentError;
+};
+
+/// Largest baseline atlas texels per face edge (baseline.h).
+inline constexpr int kMaxBaselineTexels = 1024;
+
+struct SceneDisplacement {
+    /// "waves" (builtin::defaultDisplacement times scale / 0.07, so |D| <= scale) or "zero";
+    /// used when height and tiles are both empty.
+    std::string function = "waves";
+    std::string height;   ///< UV-mapped height PNG: D = offset + scale * h (path as written)
+    std::string tiles;    ///< a saved tile file (.dmt) instead (path as written)
+    double scale = 0.07, offset = 0;
+    bool wrap = false;    ///< height image: wrap texture coordinates outside [0, 1]
+    int k = 5;            ///< log2 tile size of quads (sub-faces of non-quads get k - 1), 1..kMaxTileLog2
+    bool mixedSizes = false; ///< quads get k - (ptex face % 3) (>= 1): mixedTileSizes
+    std::string filter = "haar"; ///< mip filter: "haar" | "bwavelet"
+};
+
+/// A scene: a draw (surface/draw.h: camera, lights, image, effects) plus where the surface
+/// comes from.
+struct Scene : SurfaceDraw {
+    std::string name;    ///< file name or "default" (in messages)
+    std::string baseDir; ///< directory relative paths are resolved against ("" = working directory)
+    std::string mesh = "builtin:box"; ///< "builtin:box", "builtin:torus" or an OBJ path
+    SceneDisplacement displacement;
+    int isolation = 6;   ///< OpenSubdiv isolation level, 1..10
+    int baselineTexels = 0; ///< baseline atlas texels per face edge, 0..kMaxBaselineTexels; 0 = 2^k
+};
+namespace detail {
+
+// The JSON spellings of the enums a scene names.
+template <typename E> struct SceneChoice {
+    const char* name;
+    E value;
+};
+inline constexpr SceneChoice<Technique> kSceneTechniques[] = {
+    {"base", Technique::Base}, {"displaced", Technique::Displaced}, {"baseline", Technique::Baseline}};
+inline constexpr SceneChoice<NormalMode> kSceneNormals[] = {
+    {"approximate", NormalMode::Approximate}, {"accurate", NormalMode::Accurate}, {"auto", NormalMode::Auto}};
+inline constexpr SceneChoice<MipSelection> kSceneLods[] = {
+    {"off", MipSelection::Off}, {"tessfactor", MipSelection::TessFactor}, {"texelratio", MipSelection::TexelRatio}};
+inline constexpr SceneChoice<TessMethod> kSceneTessMethods[] = {{"uniform", TessMethod::Uniform},
+                                                                {"distance", TessMethod::Distance},
+                                                                {"edge", TessMethod::ScreenEdge},
+                                                                {"area", TessMethod::ScreenArea}};
+inline constexpr SceneChoice<Spacing> kSceneSpacings[] = {{"fractional_even", Spacing::FractionalEven},
+                                                          {"integer", Spacing::Integer}};
+
+template <typename E, std::size_t N> const char* sceneChoiceName(const SceneChoice<E> (&table)[N], E value) {
+    for (const SceneChoice<E>& c : table)
+        if (c.value == value) return c.name;
+    return "?";
+}
+
+// Reads the values of one scene, throwing SceneError "scene '<name>': <path>: <why>".
+class SceneReader {
+  public:
+    using Json = nlohmann::json;
+    explicit SceneReader(std::string name) : name_(std::move(name)) {}
+
+    [[noreturn]] void fail(const std::string& path, const std::string& why) const {
+        throw SceneError("scene '" + name_ + "': " + (path.empty() ? "" : path + ": ") + why);
+    }
+    static std::string join(const std::string& path, const char* key) {
+        return path.empty() ? std::string(key) : path + "." + key;
+    }
+    static std::string describe(const Json& j) {
+        std::string s = j.dump();
+        return s.size() > 40 ? s.substr(0, 37) + "..." : s;
+    }
+
+    // j must be an object whose keys are all in `known`; `what` is "key" or "effect".
+    void object(const Json& j, const std::string& path, std::initializer_list<const char*> known,
+                const char* what = "key") const {
+        if (!j.is_object()) fail(path, "expected an object, got " + describe(j));
+        for (auto it = j.begin(); it != j.end(); ++it) {
+            bool ok = false;
+            for (const char* k : known) ok = ok || it.key() == k;
+            if (ok) continue;
+            std::string list;
+            for (const char* k : known) list += (list.empty() ? "" : ", ") + std::string(k);
+            fail(path, std::string("unknown ") + what + " '" + it.key() + "' (known: " + list + ")");
+        }
+    }
+
+    double number(const Json& j, const std::string& path) const {
+        if (!j.is_number()) fail(path, "expected a number, got " + describe(j));
+        const double x = j.get<double>();
+        if (!std::isfinite(x)) fail(path, "must be finite");
+        return x;
+    }
+    // A number in [lo, hi] (each end open if the flag says so).
+    double number(const Json& j, const std::string& path, double lo, double hi, bool loOpen = false,
+                  bool hiOpen = false) const {
+        const double x = number(j, path);
+        if (loOpen ? !(x > lo) : !(x >= lo))
+            fail(path, describe(j) + " is out of range (must be " + (loOpen ? "> " : ">= ") + fmt(lo) + ")");
+        if (hiOpen ? !(x < hi) : !(x <= hi))
+            fail(path, describe(j) + " is out of range (must be " + (hiOpen ? "< " : "<= ") + fmt(hi) + ")");
+        return x;
+    }
+    int integer(const Json& j, const std::string& path, int lo, int hi) const {
+        if (!j.is_number()) fail(path, "expected an integer, got " + describe(j));
+        const double x = j.get<double>();
+        if (!std::isfinite(x) || x != std::floor(x)) fail(path, "expected an integer, got " + describe(j));
+        if (x < lo || x > hi)
+            fail(path, describe(j) + " is out of range [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+        return static_cast<int>(x);
+    }
+    bool boolean(const Json& j, const std::string& path) const {
+        if (!j.is_boolean()) fail(path, "expected true or false, got " + describe(j));
+        return j.get<bool>();
+    }
+    std::string string(const Json& j, const std::string& path) const {
+        if (!j.is_string()) fail(path, "expected a string, got " + describe(j));
+        return j.get<std::string>();
+    }
+    // Three finite numbers, each in [lo, hi].
+    glm::dvec3 vec3(const Json& j, const std::string& path, double lo = -1e300, double hi = 1e300) const {
+        if (!j.is_array() || j.size() != 3) fail(path, "expected an array of 3 numbers, got " + describe(j));
+        glm::dvec3 v;
+        for (int i = 0; i < 3; ++i) v[i] = number(j[static_cast<std::size_t>(i)], path + "[" + std::to_string(i) + "]", lo, hi);
+        return v;
+    }
+    template <typename E, std::size_t N>
+    E choice(const Json& j, const std::string& path, const SceneChoice<E> (&table)[N]) const {
+        const std::string s = string(j, path);
+        std::string list;
+        for (const SceneChoice<E>& c : table) {
+            if (s == c.name) return c.value;
+            list += (list.empty() ? "" : ", ") + std::string(c.name);
+        }
+        fail(path, "unknown value '" + s + "' (" + list + ")");
+    }
+    void oneOf(const std::string& s, const std::string& path, std::initializer_list<const char*> known) const {
+        std::string list;
+        for (const char* k : known) {
+            if (s == k) return;
+            list += (list.empty() ? "" : ", ") + std::string(k);
+        }
+        fail(path, "unknown value '" + s + "' (" + list + ")");
+    }
+
+  private:
+    static std::string fmt(double x) {
+        std::string s = Json(x).dump();
+        if (s.size() > 2 && s.compare(s.size() - 2, 2, ".0") == 0) s.resize(s.size() - 2);
+        return s;
+    }
+    std::string name_;
+};
+
+} // namespace detail
+
+/// The text of the embedded default scene (the box with a pentagon and a triangle, waves).
+inline const char* defaultSceneJson() {
+    return R"({
+  "mesh": "builtin:box",
+  "isolation": 6,
+  "displacement": {"function": "waves", "scale": 0.07, "k": 5, "filter": "haar"},
+  "camera": {"eye": [2.6, 2.0, 3.4], "target": [0, 0, 0], "up": [0, 1, 0], "fovY": 40, "near": 0.05, "far": 100},
+  "lights": [
+    {"direction": [0.45, 0.8, 0.55], "color": [0.95, 0.92, 0.86]},
+    {"direction": [-0.7, 0.15, -0.4], "color": [0.22, 0.26, 0.34]}
+  ],
+  "ambient": 0.15,
+  "albedo": [0.8, 0.78, 0.74],
+  "background": [0.0, 0.0, 0.0],
+  "resolution": [320, 240],
+  "effects": {
+    "technique": "displaced",
+    "normals": "approximate",
+    "lod": "tessfactor",
+    "tessellation": {"method": "uniform", "value": 32, "max": 64, "spacing": "fractional_even"}
+  }
+}
+)";
+}
+
+/// Parses a scene from JSON text. `name` names the scene in messages (the file name or
+/// "default"); relative paths will be resolved against `baseDir`. Throws SceneError (see the
+/// top of this file). Files are not opened here (sceneMesh and sceneTiles do that).
+inline Scene parseScene(std::string_view json, const std::string& name, const std::string& baseDir) {
+    using Json = nlohmann::json;
+    const detail::SceneReader r(name);
+    Json root;
+    try {
+        root = Json::parse(json.begin(), json.end(), nullptr, true, /*ignore_comments=*/true);
+    } catch (const Json::exception& e) {
+        r.fail("", std::string("invalid JSON: ") + e.what());
+    }
+    Scene s;
+    s.name = name;
+    s.baseDir = baseDir;
+    r.object(root, "", {"mesh", "isolation", "displacement", "camera", "lights", "ambient", "albedo", "background",
+                        "resolution", "baselineTexels", "effects"});
+    const auto has = [](const Json& j, const char* key) { return j.contains(key); };
+
+    if (has(root, "mesh")) {
+        s.mesh = r.string(root["mesh"], "mesh");
+        if (s.mesh.empty()) r.fail("mesh", "empty (give \"builtin:box\", \"builtin:torus\" or an OBJ path)");
+        if (s.mesh.rfind("builtin:", 0) == 0) {
+            const std::string b = s.mesh.substr(8);
+            if (b != "box" && b != "torus")
+                r.fail("mesh", "unknown built-in mesh '" + b + "' (known: " + builtin::builtinMeshNames() + ")");
+        }
+    }
+    if (has(root, "isolation")) s.isolation = r.integer(root["isolation"], "isolation", 1, 10);
+
+    if (has(root, "displacement")) {
+        const Json& d = root["displacement"];
+        r.object(d, "displacement", {"function", "height", "tiles", "scale", "offset", "wrap", "k", "mixedSizes", "filter"});
+        SceneDisplacement& o = s.displacement;
+        if (has(d, "function")) {
+            o.function = r.string(d["function"], "displacement.function");
+            r.oneOf(o.function, "displacement.function", {"waves", "zero"});
+        }
+        if (has(d, "height")) o.height = r.string(d["height"], "displacement.height");
+        if (has(d, "tiles")) o.tiles = r.string(d["tiles"], "displacement.tiles");
+        if (!o.height.empty() && !o.tiles.empty())
+            r.fail("displacement", "give either a height image or a tile file, not both");
+        if (has(d, "scale")) o.scale = r.number(d["scale"], "displacement.scale");
+        if (has(d, "offset")) o.offset = r.number(d["offset"], "displacement.offset");
+        if (has(d, "wrap")) o.wrap = r.boolean(d["wrap"], "displacement.wrap");
+        if (has(d, "k")) o.k = r.integer(d["k"], "displacement.k", kMinTileLog2, kMaxTileLog2);
+        if (has(d, "mixedSizes")) o.mixedSizes = r.boolean(d["mixedSizes"], "displacement.mixedSizes");
+        if (has(d, "filter")) {
+            o.filter = r.string(d["filter"], "displacement.filter");
+            r.oneOf(o.filter, "displacement.filter", {"haar", "bwavelet"});
+        }
+    }
+
+    if (has(root, "camera")) {
+        const Json& c = root["camera"];
+        r.object(c, "camera", {"eye", "target", "up", "fovY", "near", "far"});
+        Camera& o = s.camera;
+        if (has(c, "eye")) o.eye = r.vec3(c["eye"], "camera.eye");
+        if (has(c, "target")) o.target = r.vec3(c["target"], "camera.target");
+        if (has(c, "up")) o.up = r.vec3(c["up"], "camera.up");
+        if (has(c, "fovY")) o.fovYDeg = r.number(c["fovY"], "camera.fovY", 0.0, 180.0, true, true);
+        if (has(c, "near")) o.nearPlane = r.number(c["near"], "camera.near", 0.0, 1e300, true);
+        if (has(c, "far")) o.farPlane = r.number(c["far"], "camera.far");
+    }
+    {
+        const Camera& c = s.camera;
+        const glm::dvec3 view = c.target - c.eye;
+        const double lv = glm::length(view), lu = glm::length(c.up);
+        if (!(lv > 0.0) || !std::isfinite(lv)) r.fail("camera", "eye and target are the same point");
+        if (!(lu > 0.0) || !std::isfinite(lu)) r.fail("camera.up", "is the zero vector");
+        if (!(glm::length(glm::cross(view / lv, c.up / lu)) > 1e-6))
+            r.fail("camera.up", "is parallel to the view direction (target - eye)");
+        if (!(c.farPlane > c.nearPlane))
+            r.fail("camera.far", "must be greater than camera.near (" + std::to_string(c.nearPlane) + ")");
+    }
+
+    if (has(root, "lights")) {
+        const Json& l = root["lights"];
+        if (!l.is_array()) r.fail("lights", "expected an array of lights, got " + detail::SceneReader::describe(l));
+        if (l.size() > static_cast<std::size_t>(kMaxLights))
+            r.fail("lights", std::to_string(l.size()) + " lights, at most " + std::to_string(kMaxLights));
+        s.lights.clear();
+        for (std::size_t i = 0; i < l.size(); ++i) {
+            const std::string path = "lights[" + std::to_string(i) + "]";
+            r.object(l[i], path, {"direction", "color"});
+            Light light;
+            if (has(l[i], "direction")) light.direction = r.vec3(l[i]["direction"], path + ".direction");
+            if (has(l[i], "color")) light.color = r.vec3(l[i]["color"], path + ".color", 0.0, 1e300);
+            const double len = glm::length(light.direction);
+            if (!(len > 0.0) || !std::isfinite(len)) r.fail(path + ".direction", "is the zero vector (or too long)");
+            // Already unit length to rounding (as toJson writes it): kept, so that a scene
+            // round-trips bit for bit.
+            if (std::abs(len - 1.0) > 1e-15) light.direction /= len;
+            s.lights.push_back(light);
+        }
+    }
+    if (has(root, "ambient")) s.ambient = r.number(root["ambient"], "ambient", 0.0, 1e300);
+    if (has(root, "albedo")) s.albedo = r.vec3(root["albedo"], "albedo", 0.0, 1.0);
+    if (has(root, "background")) s.background = r.vec3(root["background"], "background", 0.0, 1.0);
+    if (has(root, "resolution")) {
+        const Json& res = root["resolution"];
+        if (!res.is_array() || res.size() != 2)
+            r.fail("resolution", "expected [width, height], got " + detail::SceneReader::describe(res));
+        s.width = r.integer(res[0], "resolution[0]", 1, kMaxImageSize);
+        s.height = r.integer(res[1], "resolution[1]", 1, kMaxImageSize);
+    }
+    if (has(root, "baselineTexels"))
+        s.baselineTexels = r.integer(root["baselineTexels"], "baselineTexels", 0, kMaxBaselineTexels);
+
+    if (has(root, "effects")) {
+        const Json& e = root["effects"];
+        r.object(e, "effects", {"technique", "normals", "autoTolerance", "lod", "tessellation", "wireframe"}, "effect");
+        SurfaceEffects& o = s.effects;
+        if (has(e, "technique")) o.technique = r.choice(e["technique"], "effects.technique", detail::kSceneTechniques);
+        if (has(e, "normals")) o.normals = r.choice(e["normals"], "effects.normals", detail::kSceneNormals);
+        if (has(e, "autoTolerance")) o.autoToleranceDeg = r.number(e["autoTolerance"], "effects.autoTolerance", 0.0, 90.0);
+        if (has(e, "lod")) o.lod = r.choice(e["lod"], "effects.lod", detail::kSceneLods);
+        if (has(e, "wireframe")) o.wireframe = r.boolean(e["wireframe"], "effects.wireframe");
+        if (has(e, "tessellation")) {
+            const Json& t = e["tessellation"];
+            r.object(t, "effects.tessellation", {"method", "value", "max", "spacing"});
+            if (has(t, "method"))
+                o.tessMethod = r.choice(t["method"], "effects.tessellation.method", detail::kSceneTessMethods);
+            if (has(t, "value")) o.tessValue = r.number(t["value"], "effects.tessellation.value", 0.0, 1e300, true);
+            if (has(t, "max")) o.maxFactor = r.number(t["max"], "effects.tessellation.max", 1.0, 64.0);
+            if (has(t, "spacing"))
+                o.spacing = r.choice(t["spacing"], "effects.tessellation.spacing", detail::kSceneSpacings);
+        }
+    }
+    return s;
+}
+
+/// Reads and parses a scene file; relative paths in it resolve against its directory.
+/// Throws FileError naming the path if it cannot be read, SceneError (named by the path) for
+/// its content.
+inline Scene loadScene(const std::string& path) {
+    const std::vector<unsigned char> bytes = detail::readFileBytes(path, "scene file");
+    const std::string text(bytes.begin(), bytes.end());
+    return parseScene(text, path, std::filesystem::path(path).parent_path().string());
+}
+
+/// The embedded default scene.
+inline Scene defaultScene() { return parseScene(defaultSceneJson(), "default", ""); }
+
+/// The scene as JSON (every key, paths as written); parseScene of it gives the scene back.
+inline std::string toJson(const Scene& s) {
+    using Json = nlohmann::ordered_json;
+    const auto v3 = [](const glm::dvec3& v) { return Json::array({v.x, v.y, v.z}); };
+    Json j;
+    j["mesh"] = s.mesh;
+    j["isolation"] = s.isolation;
+    const SceneDisplacement& d = s.displacement;
+    j["displacement"] = {{"function", d.function}, {"height", d.height}, {"tiles", d.tiles},
+                         {"scale", d.scale},       {"offset", d.offset}, {"wrap", d.wrap},
+                         {"k", d.k},               {"mixedSizes", d.mixedSizes}, {"filter", d.filter}};
+    const Camera& c = s.camera;
+    j["camera"] = {{"eye", v3(c.eye)},       {"target", v3(c.target)}, {"up", v3(c.up)},
+                   {"fovY", c.fovYDeg},      {"near", c.nearPlane},    {"far", c.farPlane}};
+    Json lights = Json::array();
+    for (const Light& l : s.lights) lights.push_back({{"direction", v3(l.direction)}, {"color", v3(l.color)}});
+    j["lights"] = std::move(lights);
+    j["ambient"] = s.ambient;
+    j["albedo"] = v3(s.albedo);
+    j["background"] = v3(s.background);
+    j["resolution"] = Json::array({s.width, s.height});
+    j["baselineTexels"] = s.baselineTexels;
+    const SurfaceEffects& e = s.effects;
+    j["effects"] = {{"technique", detail::sceneChoiceName(detail::kSceneTechniques, e.technique)},
+                    {"normals", detail::sceneChoiceName(detail::kSceneNormals, e.normals)},
+                    {"autoTolerance", e.autoToleranceDeg},
+                    {"lod", detail::sceneChoiceName(detail::kSceneLods, e.lod)},
+                    {"tessellation",
+                     {{"method", detail::sceneChoiceName(detail::kSceneTessMethods, e.tessMethod)},
+                      {"value", e.tessValue},
+                      {"max", e.maxFactor},
+                      {"spacing", detail::sceneChoiceName(detail::kSceneSpacings, e.spacing)}}},
+                    {"wireframe", e.wireframe}};
+    return j.dump(2) + "\n";
+}
+
+/// `path` resolved against the scene's directory (absolute paths and an empty baseDir leave
+/// it as it is).
+inline std::string resolveScenePath(const Scene& scene, const std::string& path) {
+    const std::filesystem::path p(path);
+    if (p.is_absolute() || scene.baseDir.empty()) return path;
+    return (std::filesystem::path(scene.baseDir) / p).string();
+}
+
+} // namespace dispmap

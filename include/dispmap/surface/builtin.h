@@ -1,0 +1,91 @@
+#pragma once
+// Built-in control meshes and procedural displacements: the embedded default scene of
+// `dispmap demo`, the torus cages of the benchmark tables, and the meshes a scene file names
+// as "builtin:<name>" (scene.h). No files needed.
+#include <cmath>
+#include <string>
+
+#include "dispmap/core/error.h"
+#include "dispmap/surface/mesh.h"
+
+namespace dispmap::builtin {
+
+/// The default cage: the box [-1, 1]^3 whose top is split into a pentagon and a triangle, so
+/// that it has valence-3 corners, valence-5 and valence-4 vertices and two non-quad faces
+/// (T-junctions with their quad neighbours). 7 faces, 17 Ptex faces.
+inline ControlMesh defaultMesh() {
+    static const char* obj = R"(v -1 -1 -1
+v 1 -1 -1
+v 1 1 -1
+v -1 1 -1
+v -1 -1 1
+v 1 -1 1
+v 1 1 1
+v -1 1 1
+v 0 -1 1
+v 0 1 1
+f 1 4 3 2
+f 1 2 6 9 5
+f 2 3 7 6
+f 3 4 8 10 7
+f 4 1 5 8
+f 5 9 8
+f 9 6 7 10 8
+)";
+    return ControlMesh::fromObjText(obj, "default scene");
+}
+
+/// The default procedural displacement ("waves"): two products of sines of 3 x 2 cycles per
+/// face, phase-shifted by the face id, plus a diagonal ripple of 9 cycles; |D| <= 0.07.
+inline double defaultDisplacement(int face, double u, double v) {
+    const double pi = 3.14159265358979323846;
+    return 0.05 * std::sin(2 * pi * 3 * u + face) * std::sin(2 * pi * 2 * v) + 0.02 * std::cos(2 * pi * 9 * (u + v));
+}
+
+/// A torus cage of n x m quads around the z axis, main radius R, tube radius r; face
+/// i + n j spans angles [i, i + 1] / n turns around the main circle and [j, j + 1] / m around
+/// the tube. Throws ArgumentError unless n, m >= 3 and 0 < r < R are finite.
+inline ControlMesh torusCage(int n, int m, double R, double r, const std::string& name) {
+    if (n < 3 || m < 3 || !std::isfinite(R) || !std::isfinite(r) || !(r > 0.0) || !(r < R))
+        throw ArgumentError("torusCage: need n, m >= 3 and 0 < r < R (got n = " + std::to_string(n) +
+                            ", m = " + std::to_string(m) + ", R = " + std::to_string(R) + ", r = " + std::to_string(r) + ")");
+    const double tau = 6.283185307179586;
+    std::string obj;
+    for (int j = 0; j < m; ++j)
+        for (int i = 0; i < n; ++i) {
+            const double a = tau * i / n, b = tau * j / m, w = R + r * std::cos(b);
+            obj += "v " + std::to_string(w * std::cos(a)) + " " + std::to_string(w * std::sin(a)) + " " +
+                   std::to_string(r * std::sin(b)) + "\n";
+        }
+    for (int j = 0; j < m; ++j)
+        for (int i = 0; i < n; ++i) {
+            auto id = [&](int a, int b) { return std::to_string((b % m) * n + (a % n) + 1); };
+            obj += "f " + id(i, j) + " " + id(i + 1, j) + " " + id(i + 1, j + 1) + " " + id(i, j + 1) + "\n";
+        }
+    return ControlMesh::fromObjText(obj, name);
+}
+
+/// The torus of the normals table: 8 x 6 quads, radii 2 and 0.6 (curvature up to 1 / 0.6).
+inline ControlMesh torusMesh() { return torusCage(8, 6, 2.0, 0.6, "torus 8x6"); }
+
+/// The torus's displacement: amplitude up to 0.12 at 3 cycles per face on one side of the
+/// torus, fading to nothing on the other (the angle around the main circle is
+/// (face % 8 + u) / 8 turns), so that auto normals spend the Weingarten term on one side only.
+inline double torusDisplacement(int face, double u, double v) {
+    const double tau = 6.283185307179586, a = tau * (face % 8 + u) / 8.0;
+    const double amplitude = 0.12 * std::pow(0.5 + 0.5 * std::cos(a), 3.0);
+    return amplitude * std::sin(tau * 3 * u + 0.7 * face) * std::cos(tau * 3 * v);
+}
+
+/// The names builtinMesh accepts, for messages.
+inline const char* builtinMeshNames() { return "box, torus"; }
+
+/// A built-in mesh by name: "box" (defaultMesh) or "torus" (torusMesh). Throws ArgumentError
+/// listing the known names otherwise.
+inline ControlMesh builtinMesh(const std::string& name) {
+    if (name == "box") return defaultMesh();
+    if (name == "torus") return torusMesh();
+    throw ArgumentError("unknown built-in mesh '" + name + "' (known: " + builtinMeshNames() + ")");
+}
+
+} // namespace dispmap::builtin

@@ -1,0 +1,220 @@
+#pragma once
+// DisplacedSurface: f(face, u, v) = s + N_s D and its normal, the CPU reference of what the
+// renderer draws (Nießner & Loop 2013, §5.1, §5.2, §5.4, §6.2).
+//
+// Normals, per NormalMode:
+//  * Approximate (§5.2, Blinn): f_u = s_u + N_s D_u; no second derivatives of s needed.
+//  * Accurate (§5.1): f_u = s_u + N_s,u D + N_s D_u with N_s,u from the Weingarten equations
+//    (kernels/normal.h).
+//  * Auto: per face, the accurate normal only where a bound on the Weingarten term says the
+//    approximate normal is off by more than the caller's tolerance (an angle). The bound is
+//    computed once per face (autoFaces()): at each point of a grid over the face, the angle the
+//    Weingarten term turns the approximate normal by (dmWeingartenAngleSine) with |D| widened
+//    by half a cell times |grad D| (either sign), largest over the grid, times kAutoMargin for
+//    what the grid misses. Between the samples it is an estimate, not a proof; the tests
+//    check the promise pointwise on every test mesh, at the finest level. At coarser mips (LOD) D and its gradient change,
+//    and with them the angle (it vanishes where grad D = 0, and grows with |D| and |grad D|);
+//    the tests measured it only falling there, but the promise is stated for the finest level.
+// In end-cap patches at extraordinary corners the normal blends to the limit normal (§5.4).
+//
+// D comes from the TileSet with the §4.4 clamp always applied (so that tiles of different
+// sizes agree along their shared edges) and, for level of detail, at a resolution rho (the
+// log2 of the level size to read, §6.2), blending the two nearest levels. rho is in the tile's
+// own units: a sub-face of an N-gon (half an edge long) stores no level below s = 2, so where its
+// quad neighbour would read s = 1 the two sides of the T-junction differ; callers that pick rho
+// per vertex (tessellator.h) floor the resolution of sub-faces accordingly.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "dispmap/surface/base_surface.h"
+#include "dispmap/kernels/lod.h"
+#include "dispmap/kernels/normal.h"
+#include "dispmap/core/tileset.h"
+
+namespace dispmap {
+
+enum class NormalMode { Approximate, Accurate, Auto };
+inline const char* toString(NormalMode m) {
+    return m == NormalMode::Approximate ? "approximate" : m == NormalMode::Accurate ? "accurate" : "auto";
+}
+
+/// The smallest sine of the angle between s_u and s_v above which the first fundamental form
+/// is used as it is (kernels/normal.h): where the float error of the Weingarten term, about
+/// eps / sin^2, stays near 0.1 (float) and 1e-2 (double).
+template <typename real> constexpr real kSinMin = real(1e-3);
+template <> inline constexpr double kSinMin<double> = 1e-7;
+
+/// Safety factor of the auto-normal bound over its grid maximum.
+inline constexpr double kAutoMargin = 1.25;
+
+/// Resolution that reads the finest level everywhere (still clamped by §4.4).
+inline constexpr double kFinest = 64.0;
+
+template <typename real> struct SurfaceSample {
+    using vec3 = glm::vec<3, real>;
+    vec3 position{0};   ///< f
+    vec3 normal{0};     ///< N_f of the mode used (after the §5.4 blend)
+    vec3 du{0}, dv{0};  ///< f_u, f_v of the mode used
+    vec3 baseNormal{0}; ///< N_s
+    vec3 displacement{0}; ///< (D, D_u, D_v)
+    bool accurate = false; ///< whether the Weingarten term was included
+};
+
+struct DisplacedSurfaceOptions {
+    /// Auto mode: largest accepted angle (radians) between approximate and accurate normal.
+    double autoTolerance = 0.01;
+    /// Samples per side of the per-face grid the auto bound is taken over.
+    int autoSamples = 17;
+};
+
+class DisplacedSurface {
+  public:
+    /// Throws ArgumentError if the tiles do not belong to the surface's mesh (tile count, or the
+    /// topology hash where the tile set has one) or the
+    /// options are out of range (tolerance not finite or < 0, fewer than 2 samples).
+    DisplacedSurface(const BaseSurface& base, const TileSet& tiles, DisplacedSurfaceOptions options = {});
+    /// The surface keeps pointers to the base and the tiles: temporaries would dangle.
+    DisplacedSurface(BaseSurface&&, const TileSet&, DisplacedSurfaceOptions = {}) = delete;
+    DisplacedSurface(const BaseSurface&, TileSet&&, DisplacedSurfaceOptions = {}) = delete;
+
+    const BaseSurface& base() const { return *base_; }
+    const TileSet& tiles() const { return *tiles_; }
+    const DisplacedSurfaceOptions& options() const { return options_; }
+
+    /// Per Ptex face: whether auto mode evaluates the accurate normal there.
+    const std::vector<std::uint8_t>& autoFaces() const { return autoAccurate_; }
+    /// How many faces auto mode evaluates accurately, and the bound per face (sine).
+    int autoAccurateCount() const { return autoCount_; }
+    double autoBound(int face) const { return autoBound_[base_->checkedFace(face)]; }
+
+    /// (D, D_u, D_v) at (face, u, v) read at resolution rho (kFinest: the finest level the
+    /// §4.4 clamp allows). Throws ArgumentError for a face id out of range, (u, v) outside
+    /// [0, 1]^2 or not finite, or a NaN rho.
+    template <typename real> glm::vec<3, real> displacement(int face, real u, real v, real rho = real(kFinest)) const;
+
+    /// f, N_f and the rest at (face, u, v); throws as BaseSurface::evaluate, and for a NaN rho.
+    template <typename real>
+    SurfaceSample<real> evaluate(int face, real u, real v, NormalMode mode, real rho = real(kFinest)) const;
+
+  private:
+    /// The checks of displacement() (evaluate leaves (u, v) and holes to BaseSurface).
+    template <typename real> void check(int face, real u, real v, real rho, bool uv) const;
+    template <typename real> glm::vec<3, real> displacementAt(int face, real u, real v, real rho) const;
+    const BaseSurface* base_;
+    const TileSet* tiles_;
+    DisplacedSurfaceOptions options_;
+    std::vector<std::uint8_t> autoAccurate_;
+    std::vector<double> autoBound_;
+    int autoCount_ = 0;
+};
+
+template <typename real> void DisplacedSurface::check(int face, real u, real v, real rho, bool uv) const {
+    if (uv)
+        base_->checkPoint(face, u, v);
+    else
+        base_->checkedFace(face);
+    if (std::isnan(rho)) throw ArgumentError("displaced surface: resolution rho is NaN (face " + std::to_string(face) + ")");
+}
+
+template <typename real> glm::vec<3, real> DisplacedSurface::displacement(int face, real u, real v, real rho) const {
+    check(face, u, v, rho, true);
+    return displacementAt(face, u, v, rho);
+}
+
+template <typename real> glm::vec<3, real> DisplacedSurface::displacementAt(int face, real u, real v, real rho) const {
+    const Tile& t = tiles_->tiles[static_cast<std::size_t>(face)];
+    const glm::vec<2, real> uv(u, v);
+    auto level = [&](int m) { return tiles_->evaluateD1(face, m, uv); };
+    // Finest level with no smaller tile at any corner: dmSelectMips would pick level 0 alone.
+    // Said directly, because the selection's latency sits in front of the loads (measured:
+    // 18 of 38 ns).
+    if (rho >= real(t.k) && (t.sizeDifferences[0] | t.sizeDifferences[1] | t.sizeDifferences[2] | t.sizeDifferences[3]) == 0)
+        return level(0);
+    const glm::ivec4 diffs(t.sizeDifferences[0], t.sizeDifferences[1], t.sizeDifferences[2], t.sizeDifferences[3]);
+    const real maxRes = kern::dmMaxResolution(t.k, diffs, uv);
+    int mFine = 0, mCoarse = 0;
+    const real w = kern::dmSelectMips(rho, maxRes, t.k, mFine, mCoarse);
+    const glm::vec<3, real> coarse = level(mCoarse);
+    if (w == real(0)) return coarse;
+    return kern::dmBlendMips(coarse, level(mFine), w);
+}
+
+template <typename real>
+SurfaceSample<real> DisplacedSurface::evaluate(int face, real u, real v, NormalMode mode, real rho) const {
+    check(face, u, v, rho, false); // before autoAccurate_[face]; BaseSurface checks (u, v) and holes
+    const bool accurate = mode == NormalMode::Accurate ||
+                          (mode == NormalMode::Auto && autoAccurate_[static_cast<std::size_t>(face)] != 0);
+    // Approximate normals need first derivatives only; the second are fetched where s_u x s_v
+    // vanishes, for the Taylor fallback of dmBaseNormal.
+    BaseSample<real> s = base_->evaluate(face, u, v, accurate);
+    if (!accurate) {
+        const glm::vec<3, real> n0 = glm::cross(s.du, s.dv);
+        if (!(kern::dmDot3(n0, n0) > real(0))) s = base_->evaluate(face, u, v, true);
+    }
+    SurfaceSample<real> out;
+    const glm::vec<3, real> fallback(real(0), real(0), real(1));
+    const glm::vec<3, real> N = kern::dmBaseNormal(s.du, s.dv, s.duu, s.duv, s.dvv, glm::vec<2, real>(u, v), fallback);
+    const glm::vec<3, real> d1 = displacementAt(face, u, v, rho);
+    glm::vec<3, real> n;
+    if (accurate) {
+        glm::vec<3, real> Nu, Nv;
+        kern::dmNormalDerivWeingarten(s.du, s.dv, s.duu, s.duv, s.dvv, N, kSinMin<real>, Nu, Nv);
+        n = kern::dmDisplacedNormalAccurate(s.du, s.dv, N, Nu, Nv, d1, out.du, out.dv);
+    } else {
+        n = kern::dmDisplacedNormalApprox(s.du, s.dv, N, d1, out.du, out.dv);
+    }
+    out.position = s.p + N * d1.x;
+    out.normal = s.evWeight > real(0) ? kern::dmBlendLimitNormal(n, s.evNormal, s.evWeight) : n;
+    out.baseNormal = N;
+    out.displacement = d1;
+    out.accurate = accurate;
+    return out;
+}
+
+inline DisplacedSurface::DisplacedSurface(const BaseSurface& base, const TileSet& tiles, DisplacedSurfaceOptions options)
+    : base_(&base), tiles_(&tiles), options_(options) {
+    if (tiles.tileCount() != base.faceCount())
+        throw ArgumentError("the tile set has " + std::to_string(tiles.tileCount()) + " tiles but the surface has " +
+                            std::to_string(base.faceCount()) + " Ptex faces: it was built for another mesh");
+    if (tiles.topologyHash != 0 && tiles.topologyHash != base.topologyHash())
+        throw ArgumentError("the tile set was built for another mesh topology than the surface (topology hashes differ)");
+    if (!std::isfinite(options.autoTolerance) || options.autoTolerance < 0.0)
+        throw ArgumentError("auto-normal tolerance must be a finite angle >= 0 (radians)");
+    if (options.autoSamples < 2 || options.autoSamples > 1024)
+        throw ArgumentError("auto-normal samples per side must be in [2, 1024]");
+    const int n = base.faceCount();
+    autoAccurate_.assign(static_cast<std::size_t>(n), 0);
+    autoBound_.assign(static_cast<std::size_t>(n), 0.0);
+    const double limit = std::sin(std::min(options.autoTolerance, 1.5707963267948966));
+    for (int f = 0; f < n; ++f) {
+        if (base.isHole(f)) continue;
+        double bound = 0;
+        const int m = options.autoSamples;
+        const double h = 1.0 / double(m - 1);
+        for (int j = 0; j < m && bound < 1.0; ++j)
+            for (int i = 0; i < m && bound < 1.0; ++i) {
+                const double u = i * h, v = j * h;
+                const BaseSample<double> s = base.evaluate(f, u, v, true);
+                const glm::dvec3 N = kern::dmBaseNormal(s.du, s.dv, s.duu, s.duv, s.dvv, glm::dvec2(u, v), glm::dvec3(0, 0, 1));
+                glm::dvec3 Nu, Nv, au, av;
+                kern::dmNormalDerivWeingarten(s.du, s.dv, s.duu, s.duv, s.dvv, N, kSinMin<double>, Nu, Nv);
+                const glm::dvec3 d1 = displacementAt(f, u, v, kFinest);
+                kern::dmDisplacedNormalApprox(s.du, s.dv, N, d1, au, av);
+                // The largest |D| in the cell around the sample, to first order, either sign.
+                const double absD = std::abs(d1.x) + 0.5 * h * (std::abs(d1.y) + std::abs(d1.z));
+                bound = std::max({bound, kern::dmWeingartenAngleSine(au, av, Nu, Nv, absD),
+                                  kern::dmWeingartenAngleSine(au, av, Nu, Nv, -absD)});
+            }
+        bound = std::min(1.0, kAutoMargin * bound);
+        autoBound_[static_cast<std::size_t>(f)] = bound;
+        if (bound > limit) {
+            autoAccurate_[static_cast<std::size_t>(f)] = 1;
+            ++autoCount_;
+        }
+    }
+}
+
+} // namespace dispmap

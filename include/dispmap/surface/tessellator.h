@@ -1,0 +1,614 @@
+#pragma once
+// Tessellator: the CPU reference tessellation of a DisplacedSurface into a watertight triangle
+// mesh, as the hardware tessellator and the evaluation shader would produce it (Nießner & Loop
+// 2013, §6.1 factors, §6.2 mip selection; the texel-ratio rule on swimming).
+//
+// Factors (§6.1). A factor is given per TileTopology vertex id, in segments per base edge:
+// base vertices carry the caller's values (uniform, distance-based, ...); an edge midpoint gets
+// the mean of its edge's two vertices and an N-gon centre the mean of its face's vertices (the
+// bilinear subdivision of the factors to sub-patch corners). A tile's corner factors are its
+// vertices' factors times 2^-scale (a sub-face of an N-gon spans half a base edge, so it takes
+// half the segments: the same density as its quad neighbours, and the same texel spacing as
+// its k - 1 tile), clamped to [1, maxFactor]; edge factors are the max of the two corners
+// (kern::dmEdgeTessFactors), inner factors the max of opposite edges (kern::dmInnerTessFactors).
+//
+// Spacing. Integer: ceil(T) equal segments. FractionalEven (hardware fractional_even_spacing):
+// for T in (2m, 2m + 2], 2m + 2 segments: m of length 1/T from each end and two equal shorter
+// ones meeting at 1/2, of length (1 - 2m/T)/2 each. Every point moves continuously with T:
+// when T crosses an even integer the two new points are born at the midpoint, and the point
+// with index i from either end sits at i/T. Factors below 2 give two segments.
+//
+// Watertight by construction. A tile edge lies on a segment between two TileTopology vertices
+// (a base edge between quads, half a base edge or a spoke of an N-gon). A segment's points
+// depend only on its two vertex ids (factor max(F_a, F_b) times 1/2 for N-gon segments,
+// clamped), are parameterised from its lower vertex id, and their vertices are created once,
+// by the first tile that needs them, and reused by every other tile on the segment; corners
+// are created once per vertex id. T-junction rule: where a quad edge meets two sub-faces of an
+// N-gon, the quad's edge points are the union of the two half-segments' points (so the
+// midpoint is always a vertex); the quad's own edge factor still enters its inner factors.
+//
+// Interior. The inner factors give grids xu, xv (the spacing above, at least 2 segments each;
+// only a face whose four edges and inner factors are all 1 under Integer spacing is two
+// triangles). The grid points strictly inside the face form the inner region (triangulated cell
+// by cell); the ring between it and each tile edge is a monotone zipper: walking both
+// polylines in the edge's direction, it advances the one whose next point comes first (ties to
+// the edge), so no triangle spans points out of order. Triangles are counter-clockwise in the
+// face's (u, v) domain, i.e. around s_u x s_v: seen from outside for counter-clockwise faces.
+//
+// Vertices. f and N_f from DisplacedSurface::evaluate<double> in the chosen NormalMode, with
+// the ptex face and (u, v) they were evaluated at (one of the faces that share the vertex) and
+// the resolution rho read. Mip selection:
+//  * Off: rho = kFinest (the finest level the §4.4 clamp allows).
+//  * TessFactor (§6.2): rho = log2 of the bilinearly interpolated per-vertex factor (dmBilerp of
+//    the tile's four corner values, in base-edge units), minus the tile's scale.
+//  * TexelRatio: the texel-ratio level M = log2(L / T) + 1 as a per-vertex resolution
+//    (kern::dmVertexResolutionTexelRatio with kMin = the smallest k + scale of the tiles around
+//    the base vertex), interpolated the same way; midpoints and centres take the mean of the
+//    resolutions of their base vertices.
+// Factors enter both rules clamped to [1, maxFactor] (in base-edge units, per vertex).
+// Both rules are per-vertex values interpolated bilinearly, so both faces of a shared edge
+// read the same rho there, including across a T-junction (the midpoint is the mean, so the
+// quad's linear interpolation and the sub-faces' agree). The vertices of non-quad faces read no
+// coarser than base resolution 2 (mip factor at least 4): a sub-face's coarsest level (s = 2 on
+// half an edge) is base resolution 2, and below it the quad across a T-junction would read a
+// level the sub-face has not.
+//
+// Output: a TriangleMesh (hole faces, BaseSurface::isHole, produce no triangles: their edges
+// are boundary edges). TriangleLocator gives the piecewise-linear position at any
+// (face, u, v); io/mesh_writers.h writes it as OBJ or PLY.
+//
+// Errors: ArgumentError for factors that are NaN, infinite or <= 0 (naming the vertex), a
+// factor set of another mesh, maxFactor outside [1, 1024] or not finite, a distance constant
+// c that is not finite and > 0.
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "dispmap/surface/base_surface.h"
+#include "dispmap/surface/displaced_surface.h"
+#include "dispmap/core/error.h"
+#include "dispmap/core/triangle_mesh.h"
+#include "dispmap/kernels/lod.h"
+#include "dispmap/kernels/tile.h"
+
+namespace dispmap {
+
+enum class Spacing { Integer, FractionalEven };
+inline const char* toString(Spacing s) { return s == Spacing::Integer ? "integer" : "fractional_even"; }
+
+enum class MipSelection {
+    Off,        ///< rho = kFinest
+    TessFactor, ///< §6.2: rho = log2 of the interpolated factor
+    TexelRatio,    ///< the texel-ratio rule: M = log2(L / T) + 1 per vertex, interpolated
+};
+inline const char* toString(MipSelection m) {
+    return m == MipSelection::Off ? "off" : m == MipSelection::TessFactor ? "log2 TF (6.2)" : "texel ratio";
+}
+
+/// Tessellation factors per TileTopology vertex id (base vertices [0, nv), edge midpoints
+/// nv + edge, N-gon centres nv + ne + face), in segments per base edge.
+struct TessFactors {
+    std::vector<double> values;
+};
+
+struct TessellateOptions {
+    NormalMode normals = NormalMode::Approximate;
+    Spacing spacing = Spacing::FractionalEven;
+    double maxFactor = 64; ///< clamp of tile factors, [1, 1024] (64 is the hardware's limit)
+    MipSelection mips = MipSelection::Off;
+};
+
+/// The points of one edge parameterised over [0, 1] for factor T (>= 1): increasing, first 0,
+/// last 1 (see the header for the two rules). Throws ArgumentError for T not finite or outside
+/// [1, 1e6].
+inline std::vector<double> edgeSpacing(double T, Spacing spacing) {
+    if (!std::isfinite(T) || T < 1.0 || T > 1e6)
+        throw ArgumentError("edge factor " + std::to_string(T) + " out of range [1, 1e6]");
+    std::vector<double> x;
+    if (spacing == Spacing::Integer) {
+        const int n = static_cast<int>(std::ceil(T));
+        x.resize(static_cast<std::size_t>(n + 1));
+        for (int i = 0; i <= n; ++i) x[static_cast<std::size_t>(i)] = double(i) / double(n);
+        return x;
+    }
+    const int m = std::max(0, static_cast<int>(std::ceil(T / 2.0)) - 1);
+    const int n = 2 * m + 2;
+    x.resize(static_cast<std::size_t>(n + 1));
+    const double h = 1.0 / T;
+    for (int i = 0; i <= m; ++i) {
+        x[static_cast<std::size_t>(i)] = double(i) * h;
+        x[static_cast<std::size_t>(n - i)] = 1.0 - double(i) * h;
+    }
+    x[static_cast<std::size_t>(m + 1)] = 0.5;
+    return x;
+}
+
+namespace detail {
+inline void checkFactor(double f, const std::string& what) {
+    if (!std::isfinite(f) || !(f > 0.0))
+        throw ArgumentError("tessellation factor " + std::to_string(f) + " of " + what +
+                            " is invalid: factors must be finite and > 0");
+}
+inline const Far::TopologyLevel& baseLevel(const BaseSurface& base) { return base.refiner().GetLevel(0); }
+} // namespace detail
+
+namespace detail {
+/// Per TileTopology vertex id from per base vertex values: edge midpoints take the mean of
+/// their edge's two vertices, N-gon centres the mean of the face's vertices (§6.1's bilinear
+/// subdivision). Written as 0.5 a + 0.5 b and a sum of x / n so that finite input stays finite.
+inline std::vector<double> spreadToTileVertices(const Far::TopologyLevel& L, const std::vector<double>& perBaseVertex) {
+    const int nv = L.GetNumVertices(), ne = L.GetNumEdges(), nf = L.GetNumFaces();
+    std::vector<double> out(static_cast<std::size_t>(nv + ne + nf), 0.0);
+    std::copy(perBaseVertex.begin(), perBaseVertex.begin() + nv, out.begin());
+    for (int e = 0; e < ne; ++e) {
+        auto ev = L.GetEdgeVertices(e);
+        out[static_cast<std::size_t>(nv + e)] =
+            0.5 * perBaseVertex[static_cast<std::size_t>(ev[0])] + 0.5 * perBaseVertex[static_cast<std::size_t>(ev[1])];
+    }
+    for (int f = 0; f < nf; ++f) {
+        auto fv = L.GetFaceVertices(f);
+        double sum = 0;
+        for (int i = 0; i < fv.size(); ++i) sum += perBaseVertex[static_cast<std::size_t>(fv[i])] / double(fv.size());
+        out[static_cast<std::size_t>(nv + ne + f)] = sum;
+    }
+    return out;
+}
+} // namespace detail
+
+/// Factors for every TileTopology vertex id from one factor per base vertex: midpoints and
+/// centres get the means (see the header). Throws ArgumentError for a wrong count or a
+/// factor that is not finite and > 0.
+inline TessFactors tessFactorsFromBaseVertices(const BaseSurface& base, const std::vector<double>& perBaseVertex) {
+    const Far::TopologyLevel& L = detail::baseLevel(base);
+    const int nv = L.GetNumVertices();
+    if (static_cast<int>(perBaseVertex.size()) != nv)
+        throw ArgumentError(std::to_string(perBaseVertex.size()) + " tessellation factors given for " +
+                            std::to_string(nv) + " base vertices");
+    TessFactors out;
+    for (int v = 0; v < nv; ++v) detail::checkFactor(perBaseVertex[static_cast<std::size_t>(v)], "base vertex " + std::to_string(v));
+    out.values = detail::spreadToTileVertices(L, perBaseVertex);
+    return out;
+}
+
+/// The same factor T at every vertex. Throws ArgumentError for T not finite or <= 0.
+inline TessFactors uniformTessFactors(const BaseSurface& base, double T) {
+    detail::checkFactor(T, "the uniform factor");
+    return tessFactorsFromBaseVertices(base, std::vector<double>(static_cast<std::size_t>(detail::baseLevel(base).GetNumVertices()), T));
+}
+
+/// The limit position s of every base vertex: s at a Ptex corner of the vertex that is not in
+/// a hole, else the control point.
+inline std::vector<glm::dvec3> baseVertexLimitPositions(const BaseSurface& base) {
+    const int nv = detail::baseLevel(base).GetNumVertices();
+    std::vector<glm::dvec3> p(static_cast<std::size_t>(nv));
+    for (int v = 0; v < nv; ++v) {
+        p[static_cast<std::size_t>(v)] = base.points()[static_cast<std::size_t>(v)];
+        for (const auto& [t, c] : base.topology().incidences(v))
+            if (!base.isHole(t)) {
+                const glm::dvec2 uv = TileTopology::cornerUV(c);
+                p[static_cast<std::size_t>(v)] = base.evaluate<double>(t, uv.x, uv.y, false).p;
+                break;
+            }
+    }
+    return p;
+}
+
+/// Distance-based factors (§6.1, kern::dmTessFactorDistance): c / |eye - s(v)| at the limit
+/// position of every base vertex. Throws ArgumentError for c not finite and > 0 or an eye
+/// that is not finite.
+inline TessFactors distanceTessFactors(const BaseSurface& base, const glm::dvec3& eye, double c) {
+    if (!std::isfinite(c) || !(c > 0.0))
+        throw ArgumentError("distance factor constant c = " + std::to_string(c) + " must be finite and > 0");
+    if (!std::isfinite(eye.x) || !std::isfinite(eye.y) || !std::isfinite(eye.z))
+        throw ArgumentError("eye position is not finite");
+    const std::vector<glm::dvec3> p = baseVertexLimitPositions(base);
+    std::vector<double> f(p.size());
+    for (std::size_t v = 0; v < p.size(); ++v) f[v] = kern::dmTessFactorDistance(eye, p[v], c);
+    return tessFactorsFromBaseVertices(base, f);
+}
+
+/// What limits the mip choice at each base vertex (the Tessellator's rules; the GPU renderer
+/// uploads the same): floorRes, the coarsest base resolution read there (2 at vertices of
+/// non-quad faces, see the header, else 1), and kMin, the smallest k + scale of the tiles
+/// around it (the texel-ratio rule's texel count; 1 << 20 where no tile touches the vertex).
+struct VertexMipLimits {
+    std::vector<double> floorRes;
+    std::vector<int> kMin;
+};
+inline VertexMipLimits vertexMipLimits(const DisplacedSurface& surface) {
+    const TileTopology& topo = surface.base().topology();
+    const int nv = detail::baseLevel(surface.base()).GetNumVertices();
+    VertexMipLimits m{std::vector<double>(static_cast<std::size_t>(nv), 1.0), std::vector<int>(static_cast<std::size_t>(nv), 1 << 20)};
+    for (int v = 0; v < nv; ++v)
+        for (const auto& [t, c] : topo.incidences(v)) {
+            (void)c;
+            if (topo.scale(t) > 0) m.floorRes[static_cast<std::size_t>(v)] = 2.0;
+            m.kMin[static_cast<std::size_t>(v)] =
+                std::min(m.kMin[static_cast<std::size_t>(v)], surface.tiles().tiles[static_cast<std::size_t>(t)].k + topo.scale(t));
+        }
+    return m;
+}
+
+/// Per-tile factors and the mip rule of one DisplacedSurface, and the tessellation itself.
+class Tessellator {
+  public:
+    /// Keeps a reference to `surface` (which keeps its base and tiles): they must outlive it.
+    /// Throws ArgumentError for factors of another mesh, invalid factors, or options out of
+    /// range (see the header).
+    Tessellator(const DisplacedSurface& surface, TessFactors factors, TessellateOptions options = {});
+    /// The tessellator keeps a pointer to the surface: a temporary would dangle.
+    Tessellator(DisplacedSurface&&, TessFactors, TessellateOptions = {}) = delete;
+
+    const TessellateOptions& options() const { return options_; }
+    /// A tile's corner factors (scaled and clamped), edge factors and inner factors. Throws
+    /// ArgumentError for a face out of range.
+    glm::dvec4 cornerFactors(int face) const;
+    glm::dvec4 edgeFactors(int face) const { return kern::dmEdgeTessFactors(cornerFactors(face)); }
+    glm::dvec2 innerFactors(int face) const { return kern::dmInnerTessFactors(edgeFactors(face)); }
+    /// The resolution rho a vertex at (face, u, v) reads (kFinest with mips off), in the
+    /// tile's own units (a sub-face's is one less than its quad neighbour's at the same texel
+    /// spacing). Throws ArgumentError for a face out of range.
+    double resolution(int face, double u, double v) const;
+    /// The whole surface (hole faces skipped).
+    TriangleMesh tessellate() const;
+
+  private:
+    struct Pending {
+        int face;
+        glm::dvec2 uv;
+    };
+    struct Point {
+        int id;
+        glm::dvec2 uv; ///< in the tile being built
+        double along;  ///< coordinate along the strip's direction
+    };
+    struct Build;
+    double segmentFactor(int a, int b) const;
+    void tile(Build& b, int t) const;
+
+    const DisplacedSurface* surface_;
+    TessFactors factors_;
+    TessellateOptions options_;
+    int nv_ = 0;
+    std::vector<double> mipValue_; ///< per vertex id: mip factor (TessFactor) or resolution (TexelRatio)
+};
+
+struct Tessellator::Build {
+    TriangleMesh mesh;
+    std::vector<Pending> pending;
+    std::vector<int> corner;                                       // vertex id -> index
+    std::unordered_map<std::uint64_t, std::vector<int>> segments;  // (lo, hi) -> indices, lo to hi
+    int add(int face, glm::dvec2 uv) {
+        pending.push_back({face, uv});
+        return static_cast<int>(pending.size()) - 1;
+    }
+};
+
+inline Tessellator::Tessellator(const DisplacedSurface& surface, TessFactors factors, TessellateOptions options)
+    : surface_(&surface), factors_(std::move(factors)), options_(options) {
+    const BaseSurface& base = surface.base();
+    const TileTopology& topo = base.topology();
+    const Far::TopologyLevel& L = detail::baseLevel(base);
+    nv_ = L.GetNumVertices();
+    if (static_cast<int>(factors_.values.size()) != topo.vertexCount())
+        throw ArgumentError(std::to_string(factors_.values.size()) + " tessellation factors given, but the surface has " +
+                            std::to_string(topo.vertexCount()) + " tile vertices: they were made for another mesh");
+    for (int v = 0; v < topo.vertexCount(); ++v)
+        detail::checkFactor(factors_.values[static_cast<std::size_t>(v)], "tile vertex " + std::to_string(v));
+    if (!std::isfinite(options.maxFactor) || options.maxFactor < 1.0 || options.maxFactor > 1024.0)
+        throw ArgumentError("maximum tessellation factor " + std::to_string(options.maxFactor) +
+                            " out of range [1, 1024]");
+    if (options.mips == MipSelection::Off) return;
+
+    // Per base vertex: the mip value, with the floor at vertices of non-quad faces.
+    const VertexMipLimits limits = vertexMipLimits(surface);
+    const std::vector<double>& floorRes = limits.floorRes;
+    const std::vector<int>& kMin = limits.kMin;
+    std::vector<double> perVertex(static_cast<std::size_t>(nv_));
+    for (int v = 0; v < nv_; ++v) {
+        const std::size_t i = static_cast<std::size_t>(v);
+        const double F = std::min(factors_.values[i], options.maxFactor);
+        if (options.mips == MipSelection::TessFactor)
+            perVertex[i] = std::max(F, std::exp2(floorRes[i]));
+        else if (kMin[i] > kMaxTileLog2 + 1) // no tile at this vertex: the value is never read
+            perVertex[i] = floorRes[i];
+        else
+            perVertex[i] = std::max(kern::dmVertexResolutionTexelRatio(kMin[i], std::max(F, 1.0)), floorRes[i]);
+    }
+    mipValue_ = detail::spreadToTileVertices(L, perVertex);
+}
+
+inline glm::dvec4 Tessellator::cornerFactors(int face) const {
+    const TileTopology& topo = surface_->base().topology();
+    if (face < 0 || face >= topo.tileCount())
+        throw ArgumentError("Ptex face " + std::to_string(face) + " out of range [0, " + std::to_string(topo.tileCount()) + ")");
+    const double scale = topo.scale(face) > 0 ? 0.5 : 1.0;
+    glm::dvec4 c;
+    for (int i = 0; i < 4; ++i)
+        c[i] = kern::dmClampTessFactor(factors_.values[static_cast<std::size_t>(topo.cornerVertex(face, i))] * scale,
+                                       options_.maxFactor);
+    return c;
+}
+
+// Factor of the segment between vertex ids a and b: the edge factor every tile on it computes
+// (max of the two scaled, clamped corners; N-gon segments have an endpoint id >= nv).
+inline double Tessellator::segmentFactor(int a, int b) const {
+    const double scale = std::max(a, b) >= nv_ ? 0.5 : 1.0;
+    const double f = std::max(factors_.values[static_cast<std::size_t>(a)], factors_.values[static_cast<std::size_t>(b)]);
+    return kern::dmClampTessFactor(f * scale, options_.maxFactor);
+}
+
+inline double Tessellator::resolution(int face, double u, double v) const {
+    const TileTopology& topo = surface_->base().topology();
+    if (face < 0 || face >= topo.tileCount())
+        throw ArgumentError("Ptex face " + std::to_string(face) + " out of range [0, " + std::to_string(topo.tileCount()) + ")");
+    if (options_.mips == MipSelection::Off) return kFinest;
+    glm::dvec4 c;
+    for (int i = 0; i < 4; ++i) c[i] = mipValue_[static_cast<std::size_t>(topo.cornerVertex(face, i))];
+    const double x = kern::dmBilerp(c, glm::dvec2(u, v));
+    const double r = options_.mips == MipSelection::TessFactor ? kern::dmResolutionFromTessFactor(x) : x;
+    return r - double(topo.scale(face));
+}
+
+inline void Tessellator::tile(Build& b, int t) const {
+    const TileTopology& topo = surface_->base().topology();
+    // (u, v) of edge e at edge parameter y (0 at corner e, 1 at corner e + 1).
+    auto edgeUV = [](int e, double y) {
+        switch (e) {
+        case 0: return glm::dvec2(y, 0.0);
+        case 1: return glm::dvec2(1.0, y);
+        case 2: return glm::dvec2(1.0 - y, 1.0);
+        default: return glm::dvec2(0.0, 1.0 - y);
+        }
+    };
+    auto cornerIndex = [&](int c) {
+        int& at = b.corner[static_cast<std::size_t>(topo.cornerVertex(t, c))];
+        if (at < 0) at = b.add(t, TileTopology::cornerUV(c));
+        return at;
+    };
+
+    // Points of segment (A, B) on edge e, for edge parameters y0 (at A) to y1 (at B),
+    // appended to `out` without the last one (B).
+    auto segment = [&](int e, int A, int B, int cA, int cB, double y0, double y1, std::vector<Point>& out) {
+        const int lo = std::min(A, B), hi = std::max(A, B);
+        const std::vector<double> x = edgeSpacing(segmentFactor(lo, hi), options_.spacing);
+        const std::size_t n = x.size() - 1;
+        auto yAt = [&](std::size_t i) { // my edge parameter of canonical point i
+            const double s = A == lo ? x[i] : 1.0 - x[i];
+            return y0 == 0.0 && y1 == 1.0 ? s : y0 + (y1 - y0) * s;
+        };
+        const std::uint64_t key = static_cast<std::uint64_t>(lo) << 32 | static_cast<std::uint32_t>(hi);
+        auto it = b.segments.find(key);
+        if (it == b.segments.end()) {
+            std::vector<int> ids(n + 1);
+            // Corners belong to the vertex ids: create them from this tile if new.
+            for (std::size_t i = 1; i < n; ++i) ids[i] = b.add(t, edgeUV(e, yAt(i)));
+            it = b.segments.emplace(key, std::move(ids)).first;
+        }
+        std::vector<int>& ids = it->second;
+        ids[A == lo ? 0 : n] = cA;
+        ids[A == lo ? n : 0] = cB;
+        for (std::size_t j = 0; j < n; ++j) {
+            const std::size_t i = A == lo ? j : n - j; // canonical index of my j-th point
+            const double y = j == 0 ? y0 : yAt(i);
+            out.push_back({ids[i], edgeUV(e, y), y});
+        }
+    };
+
+    std::array<std::vector<Point>, 4> edges;
+    std::array<int, 4> corners{};
+    for (int c = 0; c < 4; ++c) corners[static_cast<std::size_t>(c)] = cornerIndex(c);
+    for (int e = 0; e < 4; ++e) {
+        std::vector<Point>& pts = edges[static_cast<std::size_t>(e)];
+        const int A = topo.cornerVertex(t, e), B = topo.cornerVertex(t, e + 1);
+        const int cA = corners[static_cast<std::size_t>(e)], cB = corners[static_cast<std::size_t>((e + 1) & 3)];
+        const std::vector<TileTopology::Link>& links = topo.links(t, e);
+        const bool tjunction = topo.scale(t) == 0 && links.size() == 2 && links[0].beta != 1.0;
+        if (tjunction) {
+            // The midpoint vertex: the end of the sub-face edge covering [0, 1/2] that is not A.
+            const TileTopology::Link& l = links[0].y0 == 0.0 ? links[0] : links[1];
+            const int s0 = topo.cornerVertex(l.tile, l.edge), s1 = topo.cornerVertex(l.tile, l.edge + 1);
+            const int M = s0 == A ? s1 : s0;
+            int& cM = b.corner[static_cast<std::size_t>(M)];
+            if (cM < 0) cM = b.add(t, edgeUV(e, 0.5));
+            segment(e, A, M, cA, cM, 0.0, 0.5, pts);
+            segment(e, M, B, cM, cB, 0.5, 1.0, pts);
+        } else {
+            segment(e, A, B, cA, cB, 0.0, 1.0, pts);
+        }
+        pts.push_back({cB, TileTopology::cornerUV(e + 1), 1.0});
+    }
+
+    auto emit = [&](const Point& p0, const Point& p1, const Point& p2) {
+        b.mesh.triangles.emplace_back(p0.id, p1.id, p2.id);
+        b.mesh.triangleFaces.push_back(t);
+        b.mesh.triangleUVs.push_back({p0.uv, p1.uv, p2.uv});
+    };
+
+    const glm::dvec4 ef = edgeFactors(t);
+    const glm::dvec2 inner = kern::dmInnerTessFactors(ef);
+    bool allOne = options_.spacing == Spacing::Integer && inner.x <= 1.0 && inner.y <= 1.0;
+    for (int e = 0; e < 4; ++e) allOne = allOne && edges[static_cast<std::size_t>(e)].size() == 2;
+    if (allOne) {
+        const Point& p0 = edges[0][0];
+        const Point& p1 = edges[1][0];
+        const Point& p2 = edges[2][0];
+        const Point& p3 = edges[3][0];
+        emit(p0, p1, p2);
+        emit(p0, p2, p3);
+        return;
+    }
+    std::vector<double> xu = edgeSpacing(std::max(inner.x, 1.0), options_.spacing);
+    std::vector<double> xv = edgeSpacing(std::max(inner.y, 1.0), options_.spacing);
+    if (xu.size() < 3) xu = {0.0, 0.5, 1.0};
+    if (xv.size() < 3) xv = {0.0, 0.5, 1.0};
+    const int nu = static_cast<int>(xu.size()) - 1, nvv = static_cast<int>(xv.size()) - 1;
+    // Inner grid points (i, j), 1 <= i < nu, 1 <= j < nv.
+    std::vector<Point> grid(static_cast<std::size_t>((nu - 1) * (nvv - 1)));
+    auto g = [&](int i, int j) -> Point& { return grid[static_cast<std::size_t>((j - 1) * (nu - 1) + (i - 1))]; };
+    for (int j = 1; j < nvv; ++j)
+        for (int i = 1; i < nu; ++i) {
+            const glm::dvec2 uv(xu[static_cast<std::size_t>(i)], xv[static_cast<std::size_t>(j)]);
+            g(i, j) = Point{b.add(t, uv), uv, 0.0};
+        }
+    for (int j = 1; j + 1 < nvv; ++j)
+        for (int i = 1; i + 1 < nu; ++i) {
+            emit(g(i, j), g(i + 1, j), g(i + 1, j + 1));
+            emit(g(i, j), g(i + 1, j + 1), g(i, j + 1));
+        }
+    // Zippers: the inner ring side e runs in edge e's direction.
+    for (int e = 0; e < 4; ++e) {
+        std::vector<Point> q;
+        auto push = [&](int i, int j, double along) {
+            Point p = g(i, j);
+            p.along = along;
+            q.push_back(p);
+        };
+        if (e == 0)
+            for (int i = 1; i < nu; ++i) push(i, 1, xu[static_cast<std::size_t>(i)]);
+        else if (e == 1)
+            for (int j = 1; j < nvv; ++j) push(nu - 1, j, xv[static_cast<std::size_t>(j)]);
+        else if (e == 2)
+            for (int i = nu - 1; i >= 1; --i) push(i, nvv - 1, 1.0 - xu[static_cast<std::size_t>(i)]);
+        else
+            for (int j = nvv - 1; j >= 1; --j) push(1, j, 1.0 - xv[static_cast<std::size_t>(j)]);
+        const std::vector<Point>& p = edges[static_cast<std::size_t>(e)];
+        std::size_t i = 0, j = 0;
+        while (i + 1 < p.size() || j + 1 < q.size()) {
+            const bool advanceEdge =
+                j + 1 >= q.size() || (i + 1 < p.size() && p[i + 1].along <= q[j + 1].along + 1e-12);
+            if (advanceEdge) {
+                emit(p[i], p[i + 1], q[j]);
+                ++i;
+            } else {
+                emit(p[i], q[j + 1], q[j]);
+                ++j;
+            }
+        }
+    }
+}
+
+inline TriangleMesh Tessellator::tessellate() const {
+    const BaseSurface& base = surface_->base();
+    const TileTopology& topo = base.topology();
+    Build b;
+    b.corner.assign(static_cast<std::size_t>(topo.vertexCount()), -1);
+    for (int t = 0; t < topo.tileCount(); ++t)
+        if (!base.isHole(t)) tile(b, t);
+
+    TriangleMesh& m = b.mesh;
+    const std::size_t n = b.pending.size();
+    m.positions.resize(n);
+    m.normals.resize(n);
+    m.faces.resize(n);
+    m.uvs.resize(n);
+    m.resolutions.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const Pending& p = b.pending[i];
+        const double rho = resolution(p.face, p.uv.x, p.uv.y);
+        const SurfaceSample<double> s = surface_->evaluate<double>(p.face, p.uv.x, p.uv.y, options_.normals, rho);
+        if (!std::isfinite(s.position.x + s.position.y + s.position.z + s.normal.x + s.normal.y + s.normal.z))
+            throw Error("tessellation: the surface is not finite at Ptex face " + std::to_string(p.face) + ", (u, v) = (" +
+                        std::to_string(p.uv.x) + ", " + std::to_string(p.uv.y) + ")");
+        m.positions[i] = s.position;
+        m.normals[i] = s.normal;
+        m.faces[i] = p.face;
+        m.uvs[i] = p.uv;
+        m.resolutions[i] = rho;
+    }
+    return std::move(b.mesh);
+}
+
+/// Tessellates `surface` with `factors` (see the header). Throws as Tessellator.
+inline TriangleMesh tessellate(const DisplacedSurface& surface, const TessFactors& factors,
+                               const TessellateOptions& options = {}) {
+    return Tessellator(surface, factors, options).tessellate();
+}
+
+/// Finds the triangle of a TriangleMesh that covers (face, u, v) in its face's domain: a
+/// uniform bucket grid per face over the triangles' (u, v) boxes.
+class TriangleLocator {
+  public:
+    /// `faceCount` Ptex faces; `cells` buckets per side of each face's grid (>= 1).
+    TriangleLocator(const TriangleMesh& mesh, int faceCount, int cells = 16);
+    /// The locator keeps a pointer to the mesh: a temporary would dangle.
+    TriangleLocator(TriangleMesh&&, int, int = 16) = delete;
+    /// The triangle covering (face, uv) and its barycentric weights, or -1 when no triangle of
+    /// that face covers it (a hole). Points on shared edges pick the most interior triangle.
+    int locate(int face, glm::dvec2 uv, glm::dvec3& bary) const;
+    /// The piecewise-linear position at (face, uv). Throws ArgumentError where nothing covers it.
+    glm::dvec3 position(int face, glm::dvec2 uv) const;
+
+  private:
+    std::size_t bucket(int face, int i, int j) const {
+        return (static_cast<std::size_t>(face) * static_cast<std::size_t>(cells_) + static_cast<std::size_t>(j)) *
+                   static_cast<std::size_t>(cells_) +
+               static_cast<std::size_t>(i);
+    }
+    int cell(double x) const { return static_cast<int>(std::clamp(x * cells_, 0.0, double(cells_ - 1))); }
+    const TriangleMesh* mesh_;
+    int faces_, cells_;
+    std::vector<std::vector<int>> buckets_;
+};
+
+inline TriangleLocator::TriangleLocator(const TriangleMesh& mesh, int faceCount, int cells)
+    : mesh_(&mesh), faces_(faceCount), cells_(cells) {
+    if (cells < 1 || cells > 4096 || faceCount < 0) throw ArgumentError("triangle locator: invalid grid");
+    if (mesh.triangleFaces.size() != mesh.triangles.size() || mesh.triangleUVs.size() != mesh.triangles.size())
+        throw ArgumentError("triangle locator: the mesh's triangle arrays disagree in size");
+    for (const auto& t : mesh.triangleUVs)
+        for (const glm::dvec2& q : t)
+            if (!std::isfinite(q.x) || !std::isfinite(q.y)) throw ArgumentError("triangle locator: a triangle's (u, v) is not finite");
+    buckets_.resize(static_cast<std::size_t>(faceCount) * static_cast<std::size_t>(cells) * static_cast<std::size_t>(cells));
+    for (int tri = 0; tri < mesh.triangleCount(); ++tri) {
+        const int f = mesh.triangleFaces[static_cast<std::size_t>(tri)];
+        if (f < 0 || f >= faceCount) throw ArgumentError("triangle locator: triangle of face " + std::to_string(f) + " out of range");
+        const auto& uv = mesh.triangleUVs[static_cast<std::size_t>(tri)];
+        const glm::dvec2 lo = glm::min(uv[0], glm::min(uv[1], uv[2])), hi = glm::max(uv[0], glm::max(uv[1], uv[2]));
+        const double eps = 1e-12;
+        for (int j = cell(lo.y - eps); j <= cell(hi.y + eps); ++j)
+            for (int i = cell(lo.x - eps); i <= cell(hi.x + eps); ++i) buckets_[bucket(f, i, j)].push_back(tri);
+    }
+}
+
+inline int TriangleLocator::locate(int face, glm::dvec2 uv, glm::dvec3& bary) const {
+    if (face < 0 || face >= faces_ || !std::isfinite(uv.x) || !std::isfinite(uv.y)) return -1;
+    int best = -1;
+    double bestMin = -1e-9;
+    for (int tri : buckets_[bucket(face, cell(uv.x), cell(uv.y))]) {
+        const auto& c = mesh_->triangleUVs[static_cast<std::size_t>(tri)];
+        const glm::dvec2 e1 = c[1] - c[0], e2 = c[2] - c[0], d = uv - c[0];
+        const double det = e1.x * e2.y - e1.y * e2.x;
+        if (!(det > 0.0)) continue; // degenerate (zero-length fractional segment)
+        const double b1 = (d.x * e2.y - d.y * e2.x) / det, b2 = (e1.x * d.y - e1.y * d.x) / det;
+        const glm::dvec3 w(1.0 - b1 - b2, b1, b2);
+        const double mn = std::min(w.x, std::min(w.y, w.z));
+        if (mn > bestMin) {
+            bestMin = mn;
+            best = tri;
+            bary = w;
+        }
+    }
+    return best;
+}
+
+inline glm::dvec3 TriangleLocator::position(int face, glm::dvec2 uv) const {
+    glm::dvec3 w(0.0);
+    const int tri = locate(face, uv, w);
+    if (tri < 0)
+        throw ArgumentError("no triangle covers Ptex face " + std::to_string(face) + ", (u, v) = (" + std::to_string(uv.x) +
+                            ", " + std::to_string(uv.y) + ")");
+    const glm::ivec3 ix = mesh_->triangles[static_cast<std::size_t>(tri)];
+    return w.x * mesh_->positions[static_cast<std::size_t>(ix.x)] + w.y * mesh_->positions[static_cast<std::size_t>(ix.y)] +
+           w.z * mesh_->positions[static_cast<std::size_t>(ix.z)];
+}
+
+} // namespace dispmap

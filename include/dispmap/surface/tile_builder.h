@@ -1,0 +1,570 @@
+#pragma once
+// Building a TileSet from a control mesh and a displacement source (Nießner & Loop 2013, §4).
+//
+// What is solved. Per tile of size s the displacement D is sampled at the s x s sub-patch
+// centres ((i + 1/2)/s, (j + 1/2)/s), where a uniform biquadratic B-spline takes the value
+// sum_ab w_a w_b c_(i+a, j+b) with w = (1, 6, 1)/8. Interpolating all samples of all tiles
+// at once is one sparse, strictly diagonally dominant system whose unknowns are the tiles'
+// interior coefficients; the overlap ring of each tile is not an unknown, it is a copy of
+// the neighbours' coefficients (or the boundary rule). We solve it by block Gauss-Jacobi
+// sweeps: with the rings of the current iterate fixed, each tile's (T x T) x = rhs system
+// (T = tridiag(1, 6, 1)/8) is solved exactly by two passes of the Thomas algorithm; then the
+// rings are refreshed. A ring error decays by about 0.17 per coefficient into a tile, so
+// about 20 sweeps reach double precision on a mesh of quads; the report says how many ran.
+// On data that is itself a biquadratic spline over the mesh the fit returns its coefficients.
+//
+// Rules for the overlap ring (every level, every tile), in this order:
+//  * edges: the neighbour's first interior row at the matching resolution, through the
+//    rotation between the two tiles' (u, v) frames (TileTopology::Link). Where the neighbour
+//    has no level at that resolution (mixed sizes), or at a boundary, the ring is the linear
+//    extrapolation 2 c_1 - c_2 of the tile's own rows: D continues with its slope.
+//  * corners at a regular interior vertex (4 tiles): the diagonal tile's interior corner;
+//  * corners at a boundary vertex with 1 or 2 tiles: extrapolated along the ring of the
+//    shared edge, which is what the neighbour's own boundary ring holds there, so D stays C1
+//    along the boundary;
+//  * extraordinary vertices (interior valence != 4, boundary vertices with 3 or more tiles):
+//    the Doo-Sabin corner constraint of §4.2: every incident tile's interior corner is set
+//    to their average, and its 2 x 2 corner block to that value, so D_u = D_v = 0 there;
+//  * the T-junction where a quad edge meets two sub-faces of an N-gon: the sub-face's ring
+//    continues along the quad's row past the edge midpoint; where the quad's coarsest level
+//    (s = 2) meets the sub-face, the sub-face provides a virtual s = 1 level (never stored);
+//  * mixed sizes at a regular vertex whose diagonal tile lacks the level: every tile that
+//    has it uses the parallelogram rule (the two edge neighbours minus the diagonal), so they
+//    all agree on the missing quadrant's texel.
+//  * creases: D ignores them. It stays C1 across a crease in the face parameters; the
+//    displaced surface keeps the base surface's crease through N_s.
+// Mixed sizes (§4.4): levels are processed from the finest resolution to the coarsest, so
+// that at each resolution every tile's ring copies neighbour data of that same resolution.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "dispmap/core/height_image.h"
+#include "dispmap/surface/mesh.h"
+#include "dispmap/surface/tile_topology.h"
+#include "dispmap/core/tileset.h"
+
+namespace dispmap {
+
+/// D(ptexFace, u, v): a displacement defined on the mesh's face parameterisation.
+using DisplacementFunction = std::function<double(int ptexFace, double u, double v)>;
+/// A procedural source: any callable of (ptexFace, u, v) giving D.
+inline DisplacementFunction FunctionSource(DisplacementFunction f) { return f; }
+
+struct BuildOptions {
+    MipFilter filter = MipFilter::Haar;
+    int maxSweeps = 100;     ///< block Gauss-Jacobi sweeps of the interpolating fit at most
+    double tolerance = 1e-13; ///< stop when no coefficient moves more than this x (1 + max |sample|)
+};
+
+struct BuildReport {
+    int sweeps = 0;              ///< fit sweeps run
+    double lastChange = 0;       ///< largest coefficient change in the last sweep
+    double maxResidual = 0;      ///< max |D(sample) - sample| over all samples (double coefficients)
+    double maxResidualAwayFromConstraints = 0; ///< same, excluding samples whose stencil reads a constrained corner block
+    int constrainedVertices = 0; ///< vertices with the Doo-Sabin corner constraint
+    int tJunctions = 0;          ///< quad/sub-face T-junctions
+};
+
+/// Tile sizes (log2) for every Ptex face: quads get k, sub-faces of non-quads k - 1, so that
+/// texels have the same spacing along every base edge. Throws ArgumentError if k is out of
+/// range, or k < 2 on a mesh with non-quad faces.
+inline std::vector<int> uniformTileSizes(const ControlMesh& mesh, int k) {
+    if (k < kMinTileLog2 || k > kMaxTileLog2)
+        throw ArgumentError("tile size 2^" + std::to_string(k) + " out of range: k must be in [" +
+                            std::to_string(kMinTileLog2) + ", " + std::to_string(kMaxTileLog2) + "]");
+    std::vector<int> out(static_cast<std::size_t>(mesh.ptexFaceCount()), k);
+    const Far::TopologyLevel& L = mesh.base();
+    for (int f = 0; f < L.GetNumFaces(); ++f) {
+        const int n = L.GetFaceVertices(f).size();
+        if (n == 4) continue;
+        if (k - 1 < kMinTileLog2)
+            throw ArgumentError(mesh.description().name + ": face " + std::to_string(f + 1) +
+                                " is not a quad; its sub-face tiles need k >= 2");
+        for (int j = 0; j < n; ++j) out[static_cast<std::size_t>(mesh.ptex().GetFaceId(f) + j)] = k - 1;
+    }
+    return out;
+}
+
+/// A UV-mapped height image as a displacement source: D = offset + scale * h(uv), with uv
+/// interpolated bilinearly over each Ptex face from the face's texture coordinates (for a
+/// sub-face: corner, edge midpoints, centroid). Throws ArgumentError if the mesh has no
+/// texture coordinates, the image is empty, scale/offset are not finite, or (without wrap)
+/// a texture coordinate lies more than half a texel outside [0, 1].
+inline DisplacementFunction imageSource(const ControlMesh& mesh, std::shared_ptr<const HeightImage> image,
+                                        double scale, double offset, bool wrap = false) {
+    const std::string& name = mesh.description().name;
+    if (!image || image->width < 1 || image->height < 1 ||
+        image->values.size() != static_cast<std::size_t>(image->width) * static_cast<std::size_t>(image->height))
+        throw ArgumentError("height image is empty or malformed");
+    if (!std::isfinite(scale) || !std::isfinite(offset)) throw ArgumentError("height scale and offset must be finite");
+    if (!mesh.hasUVs())
+        throw ArgumentError(name + ": mesh has no texture coordinates, so a height image cannot be mapped onto it");
+    const MeshDescription& d = mesh.description();
+    const Far::TopologyLevel& L = mesh.base();
+    auto corners = std::make_shared<std::vector<std::array<glm::dvec2, 4>>>(static_cast<std::size_t>(mesh.ptexFaceCount()));
+    for (int f = 0; f < L.GetNumFaces(); ++f) {
+        const int n = L.GetFaceVertices(f).size();
+        const int at = mesh.faceOffset(f);
+        std::vector<glm::dvec2> uv(static_cast<std::size_t>(n));
+        glm::dvec2 centre(0.0);
+        for (int j = 0; j < n; ++j) {
+            uv[static_cast<std::size_t>(j)] = d.uvs[static_cast<std::size_t>(d.faceUVs[static_cast<std::size_t>(at + j)])];
+            const glm::dvec2& t = uv[static_cast<std::size_t>(j)];
+            // Within half a texel outside [0, 1] the clamped lookup reads the border texel
+            // anyway (real UV layouts, e.g. Spot's, overshoot by a fraction of a texel).
+            const double sx = 0.5 / image->width, sy = 0.5 / image->height;
+            if (!wrap && (t.x < -sx || t.x > 1.0 + sx || t.y < -sy || t.y > 1.0 + sy))
+                throw ArgumentError(name + ": face " + std::to_string(f + 1) + " has texture coordinate (" +
+                                    std::to_string(t.x) + ", " + std::to_string(t.y) +
+                                    ") outside the image; enable wrapping or fix the mesh");
+            centre += t / static_cast<double>(n);
+        }
+        const int first = mesh.ptex().GetFaceId(f);
+        if (n == 4) {
+            (*corners)[static_cast<std::size_t>(first)] = {uv[0], uv[1], uv[2], uv[3]};
+        } else {
+            for (int k = 0; k < n; ++k) {
+                const glm::dvec2 a = uv[static_cast<std::size_t>(k)];
+                const glm::dvec2 b = uv[static_cast<std::size_t>((k + 1) % n)];
+                const glm::dvec2 p = uv[static_cast<std::size_t>((k + n - 1) % n)];
+                (*corners)[static_cast<std::size_t>(first + k)] = {a, 0.5 * (a + b), centre, 0.5 * (a + p)};
+            }
+        }
+    }
+    return [corners, image, scale, offset, wrap](int face, double u, double v) {
+        const auto& c = (*corners)[static_cast<std::size_t>(face)];
+        const glm::dvec2 t = (1 - u) * (1 - v) * c[0] + u * (1 - v) * c[1] + u * v * c[2] + (1 - u) * v * c[3];
+        return offset + scale * sampleHeightBilinear(*image, t.x, t.y, wrap);
+    };
+}
+
+namespace detail {
+
+/// The working state of a build: every level of every tile in double precision.
+class TileBuild {
+  public:
+    TileBuild(const TileTopology& topo, std::vector<int> k) : topo_(topo), k_(std::move(k)) {
+        const int n = topo.tileCount();
+        data_.resize(static_cast<std::size_t>(n));
+        fit_.resize(static_cast<std::size_t>(n));
+        for (int t = 0; t < n; ++t) {
+            // Levels 0..k-1, plus a virtual level of size 1 (see sourceLevelAt).
+            for (int m = 0; m <= k_[u(t)]; ++m) data_[u(t)].emplace_back(levelTexels(size(t, m)), 0.0);
+            fit_[u(t)].assign(levelTexels(size(t, 0)), 0.0);
+        }
+    }
+
+    static std::size_t u(int i) { return static_cast<std::size_t>(i); }
+    int size(int t, int m) const { return (1 << k_[u(t)]) >> m; }
+    /// The global resolution of level m: log2 of its texels per base edge.
+    int global(int t, int m) const { return k_[u(t)] - m + topo_.scale(t); }
+    /// The level of tile t at global resolution g, or -1; sourceLevelAt also returns the
+    /// virtual level m = k of size 1: never stored or evaluated, it is the mip of the coarsest
+    /// level and feeds the neighbours' rings where a quad's coarsest level meets a sub-face at
+    /// a T-junction (there the sub-face needs size 1), so that every tile that reads that
+    /// region of the sub-face reads the same value.
+    int sourceLevelAt(int t, int g) const {
+        const int m = k_[u(t)] + topo_.scale(t) - g;
+        return (m >= 0 && m <= k_[u(t)]) ? m : -1;
+    }
+    int levelAt(int t, int g) const {
+        const int m = sourceLevelAt(t, g);
+        return m < k_[u(t)] ? m : -1;
+    }
+    double& at(int t, int m, int a, int b) { return data_[u(t)][u(m)][u(b * (size(t, m) + 2) + a)]; }
+    double& fitAt(int t, int a, int b) { return fit_[u(t)][u(b * (size(t, 0) + 2) + a)]; }
+    /// Texel (t along edge e from corner e, d inward from the ring) of a level of size s.
+    static glm::ivec2 edgeTexel(int e, int t, int d, int s) {
+        switch (e & 3) {
+        case 0: return {t, d};
+        case 1: return {s + 1 - d, t};
+        case 2: return {s + 1 - t, s + 1 - d};
+        default: return {d, s + 1 - t};
+        }
+    }
+    double& edgeAt(int t, int m, int e, int along, int d) {
+        glm::ivec2 p = edgeTexel(e, along, d, size(t, m));
+        return at(t, m, p.x, p.y);
+    }
+    double& cornerInterior(int t, int m, int c) { return edgeAt(t, m, c, 1, 1); }
+    double& cornerRing(int t, int m, int c) { return edgeAt(t, m, c, 0, 0); }
+
+    /// Value of the neighbour's first interior row that my ring texel `along` of edge e copies,
+    /// or false if the neighbour has no level of matching resolution there.
+    bool linked(const TileTopology::Link& l, int t, int m, int along, double& out) {
+        const int s = size(t, m);
+        const long sn = std::lround(static_cast<double>(s) / l.beta);
+        const int kn = k_[u(l.tile)];
+        int mn = -1;
+        for (int j = 0; j <= kn; ++j)
+            if (size(l.tile, j) == sn) mn = j;
+        if (mn < 0) return false;
+        const long tn = std::lround(static_cast<double>(sn) * l.alpha) + 1 - along;
+        if (tn < 0 || tn > sn + 1) return false;
+        out = edgeAt(l.tile, mn, l.edge, static_cast<int>(tn), 1);
+        return true;
+    }
+    /// Of the two edges at corner c, one whose ring copies a neighbour at this level (so the
+    /// neighbour, extrapolating along the same line, gets the same value); else edge c.
+    int matchedEdge(int t, int m, int c) {
+        const int prev = (c + 3) & 3;
+        double unused = 0.0;
+        if (const TileTopology::Link* l = topo_.linkAt(t, c, 0.0); l && linked(*l, t, m, 1, unused)) return c;
+        if (const TileTopology::Link* l = topo_.linkAt(t, prev, 1.0); l && linked(*l, t, m, size(t, m), unused)) return prev;
+        return c;
+    }
+    /// Extrapolates the ring corner at corner c from the ring of the edge `e` (c or c - 1).
+    double extrapolateCorner(int t, int m, int c, int e) {
+        const int s = size(t, m);
+        if (e == c) return 2.0 * edgeAt(t, m, e, 1, 0) - edgeAt(t, m, e, 2, 0);
+        return 2.0 * edgeAt(t, m, e, s, 0) - edgeAt(t, m, e, s - 1, 0);
+    }
+
+    void filterLevel(int t, int m, MipFilter f) {
+        const int s = size(t, m);
+        for (int J = 1; J <= s; ++J)
+            for (int I = 1; I <= s; ++I) {
+                double v = 0.0;
+                if (f == MipFilter::Haar) {
+                    for (int b = 0; b < 2; ++b)
+                        for (int a = 0; a < 2; ++a) v += at(t, m - 1, 2 * I - 1 + a, 2 * J - 1 + b);
+                    v *= 0.25;
+                } else {
+                    static constexpr double w[4] = {-0.25, 0.75, 0.75, -0.25};
+                    for (int b = 0; b < 4; ++b)
+                        for (int a = 0; a < 4; ++a) v += w[a] * w[b] * at(t, m - 1, 2 * I - 2 + a, 2 * J - 2 + b);
+                }
+                at(t, m, I, J) = v;
+            }
+    }
+
+    /// Computes every level of every tile from the fitted finest interiors: interiors (fit or
+    /// mip filter), the corner constraint, then edge and corner rings, resolution by resolution.
+    void finalize(MipFilter filter) {
+        const int n = topo_.tileCount();
+        int gmax = 0, gmin = 1 << 30;
+        for (int t = 0; t < n; ++t) {
+            gmax = std::max(gmax, global(t, 0));
+            gmin = std::min(gmin, global(t, k_[u(t)]));
+        }
+        for (int g = gmax; g >= gmin; --g) {
+            std::vector<std::pair<int, int>> active;
+            for (int t = 0; t < n; ++t) {
+                if (int m = levelAt(t, g); m >= 0) active.emplace_back(t, m);
+                if (int m = sourceLevelAt(t, g); m == k_[u(t)]) filterLevel(t, m, filter);
+            }
+            for (auto [t, m] : active) {
+                if (m == 0) {
+                    const int s = size(t, 0);
+                    for (int b = 1; b <= s; ++b)
+                        for (int a = 1; a <= s; ++a) at(t, 0, a, b) = fitAt(t, a, b);
+                } else {
+                    filterLevel(t, m, filter);
+                }
+            }
+            for (int v = 0; v < topo_.vertexCount(); ++v) {
+                if (topo_.kind(v) != TileTopology::VertexKind::Constrained) continue;
+                double sum = 0.0;
+                int count = 0;
+                for (auto [t, c] : topo_.incidences(v))
+                    if (int m = levelAt(t, g); m >= 0) {
+                        sum += cornerInterior(t, m, c);
+                        ++count;
+                    }
+                if (count == 0) continue;
+                for (auto [t, c] : topo_.incidences(v))
+                    if (int m = levelAt(t, g); m >= 0) cornerInterior(t, m, c) = sum / count;
+            }
+            for (auto [t, m] : active) fillEdgeRings(t, m, g);
+            for (auto [t, m] : active)
+                for (int c = 0; c < 4; ++c) fillCorner(t, m, c, g);
+        }
+    }
+
+    void fillEdgeRings(int t, int m, int g) {
+        const int s = size(t, m);
+        std::array<bool, 4> matched{};
+        for (int e = 0; e < 4; ++e) {
+            matched[u(e)] = true;
+            for (int along = 1; along <= s; ++along) {
+                const double y = (along - 0.5) / s;
+                const TileTopology::Link* l = topo_.linkAt(t, e, y);
+                double v = 0.0;
+                if (!l || !linked(*l, t, m, along, v)) {
+                    v = 2.0 * edgeAt(t, m, e, along, 1) - edgeAt(t, m, e, along, 2);
+                    matched[u(e)] = false;
+                }
+                edgeAt(t, m, e, along, 0) = v;
+            }
+        }
+        // An unmatched ring entry next to a regular vertex lies in the quadrant of a tile C
+        // without this level. The tiles around the vertex that have the level must agree on
+        // it: all use the parallelogram rule P = (C's two edge neighbours) - (C's diagonal).
+        for (int e = 0; e < 4; ++e) {
+            if (matched[u(e)] || topo_.isBoundaryEdge(t, e)) continue;
+            for (int end = 0; end < 2; ++end) {
+                const int c = end == 0 ? e : (e + 1) & 3; // the corner at this end of edge e
+                const int other = end == 0 ? (e + 3) & 3 : (e + 1) & 3;
+                if (topo_.kind(topo_.cornerVertex(t, c)) != TileTopology::VertexKind::Regular || !matched[u(other)]) continue;
+                int dt = -1, dc = -1;
+                diagonal(t, c, dt, dc);
+                const int dm = dt >= 0 ? levelAt(dt, g) : -1;
+                if (dm < 0) continue;
+                const double a = end == 0 ? edgeAt(t, m, other, s, 0) : edgeAt(t, m, other, 1, 0);
+                edgeAt(t, m, e, end == 0 ? 1 : s, 0) = cornerInterior(t, m, c) + cornerInterior(dt, dm, dc) - a;
+            }
+        }
+    }
+
+    /// The tile diagonal to tile t across its corner c at a regular vertex (or -1).
+    void diagonal(int t, int c, int& dt, int& dc) const {
+        const TileTopology::Link* next = topo_.linkAt(t, c, 0.0);
+        const TileTopology::Link* back = topo_.linkAt(t, (c + 3) & 3, 1.0);
+        dt = dc = -1;
+        for (auto [ot, oc] : topo_.incidences(topo_.cornerVertex(t, c))) {
+            if (ot == t && oc == c) continue;
+            if ((next && next->tile == ot) || (back && back->tile == ot)) continue;
+            dt = ot;
+            dc = oc;
+        }
+    }
+
+    void fillCorner(int t, int m, int c, int g) {
+        const int s = size(t, m);
+        const int v = topo_.cornerVertex(t, c);
+        const int prev = (c + 3) & 3;
+        const TileTopology::Link* next = topo_.linkAt(t, c, 0.0);
+        const TileTopology::Link* back = topo_.linkAt(t, prev, 1.0);
+        double value = 0.0;
+        switch (topo_.kind(v)) {
+        case TileTopology::VertexKind::Constrained: {
+            value = cornerInterior(t, m, c);
+            edgeAt(t, m, c, 1, 0) = value;
+            edgeAt(t, m, prev, s, 0) = value;
+            break;
+        }
+        case TileTopology::VertexKind::Regular: {
+            int dt = -1, dc = -1;
+            diagonal(t, c, dt, dc);
+            const int dm = dt >= 0 ? sourceLevelAt(dt, g) : -1;
+            double unused = 0.0;
+            if (dm >= 0)
+                value = cornerInterior(dt, dm, dc);
+            else if (next && back && linked(*next, t, m, 1, unused) && linked(*back, t, m, s, unused))
+                value = edgeAt(t, m, c, 1, 0) + edgeAt(t, m, prev, s, 0) - cornerInterior(t, m, c); // parallelogram
+            else
+                value = extrapolateCorner(t, m, c, matchedEdge(t, m, c));
+            break;
+        }
+        case TileTopology::VertexKind::BoundaryRegular:
+            value = extrapolateCorner(t, m, c, matchedEdge(t, m, c));
+            break;
+        case TileTopology::VertexKind::TJunction: {
+            // The edge on the base edge (not the spoke) links to the quad with beta != 1.
+            bool ok = false;
+            if (next && next->beta != 1.0) ok = linked(*next, t, m, 0, value);
+            if (!ok && back && back->beta != 1.0) ok = linked(*back, t, m, s + 1, value);
+            if (!ok) value = extrapolateCorner(t, m, c, c);
+            break;
+        }
+        }
+        cornerRing(t, m, c) = value;
+    }
+
+    /// One sweep of the fit: each tile's interior solved exactly with the current rings.
+    /// Returns the largest change.
+    double solveSweep(const std::vector<std::vector<double>>& samples) {
+        double change = 0.0;
+        const int n = topo_.tileCount();
+        for (int t = 0; t < n; ++t) {
+            const int s = size(t, 0);
+            const int w = s + 2;
+            std::vector<double> rhs(u(s * s));
+            for (int j = 1; j <= s; ++j)
+                for (int i = 1; i <= s; ++i) {
+                    double r = 64.0 * samples[u(t)][u((j - 1) * s + (i - 1))];
+                    for (int b = -1; b <= 1; ++b)
+                        for (int a = -1; a <= 1; ++a) {
+                            const int A = i + a, B = j + b;
+                            if (A >= 1 && A <= s && B >= 1 && B <= s) continue;
+                            r -= (a == 0 ? 6.0 : 1.0) * (b == 0 ? 6.0 : 1.0) * data_[u(t)][0][u(B * w + A)];
+                        }
+                    rhs[u((j - 1) * s + (i - 1))] = r;
+                }
+            // (T x T) x = rhs with T = tridiag(1, 6, 1): rows, then columns.
+            std::vector<double> line(u(s));
+            for (int j = 0; j < s; ++j) {
+                for (int i = 0; i < s; ++i) line[u(i)] = rhs[u(j * s + i)];
+                solveTridiagonal(line);
+                for (int i = 0; i < s; ++i) rhs[u(j * s + i)] = line[u(i)];
+            }
+            for (int i = 0; i < s; ++i) {
+                for (int j = 0; j < s; ++j) line[u(j)] = rhs[u(j * s + i)];
+                solveTridiagonal(line);
+                for (int j = 0; j < s; ++j) {
+                    double& x = fitAt(t, i + 1, j + 1);
+                    change = std::max(change, std::abs(line[u(j)] - x));
+                    x = line[u(j)];
+                }
+            }
+        }
+        return change;
+    }
+
+    /// Solves tridiag(1, 6, 1) x = d in place (Thomas algorithm; diagonally dominant, stable).
+    static void solveTridiagonal(std::vector<double>& d) {
+        const std::size_t n = d.size();
+        std::vector<double> c(n);
+        double beta = 6.0;
+        d[0] /= beta;
+        for (std::size_t i = 1; i < n; ++i) {
+            c[i] = 1.0 / beta;
+            beta = 6.0 - c[i];
+            d[i] = (d[i] - d[i - 1]) / beta;
+        }
+        for (std::size_t i = n - 1; i-- > 0;) d[i] -= c[i + 1] * d[i + 1];
+    }
+
+    const std::vector<std::vector<double>>& level(int t) const { return data_[u(t)]; }
+
+  private:
+    const TileTopology& topo_;
+    std::vector<int> k_;
+    std::vector<std::vector<std::vector<double>>> data_;
+    std::vector<std::vector<double>> fit_;
+};
+
+} // namespace detail
+
+/// Builds the tiles of `mesh` from `source` with tile sizes `k` (one log2 size per Ptex
+/// face, see uniformTileSizes). Throws ArgumentError for sizes out of range or inconsistent
+/// at a T-junction, or a NaN/Inf sample (naming face and (u, v)); MeshError for topology.
+inline TileSet buildTiles(const ControlMesh& mesh, const std::vector<int>& k, const DisplacementFunction& source,
+                          const BuildOptions& options = {}, BuildReport* report = nullptr) {
+    const std::string& name = mesh.description().name;
+    const int n = mesh.ptexFaceCount();
+    if (static_cast<int>(k.size()) != n)
+        throw ArgumentError(name + ": " + std::to_string(k.size()) + " tile sizes given for " + std::to_string(n) +
+                            " Ptex faces");
+    for (int t = 0; t < n; ++t)
+        if (k[static_cast<std::size_t>(t)] < kMinTileLog2 || k[static_cast<std::size_t>(t)] > kMaxTileLog2)
+            throw ArgumentError(name + ": tile " + std::to_string(t) + " has size 2^" +
+                                std::to_string(k[static_cast<std::size_t>(t)]) + "; k must be in [" +
+                                std::to_string(kMinTileLog2) + ", " + std::to_string(kMaxTileLog2) + "]");
+    if (!source) throw ArgumentError("no displacement source given");
+    if (options.maxSweeps < 1 || !(options.tolerance >= 0.0)) throw ArgumentError("invalid build options");
+    const TileTopology topo(mesh);
+    auto ku = [&](int t) { return k[static_cast<std::size_t>(t)]; };
+
+    // Per-vertex smallest global resolution and the per-corner differences (§4.4).
+    std::vector<int> gmin(static_cast<std::size_t>(topo.vertexCount()), 1 << 30);
+    for (int v = 0; v < topo.vertexCount(); ++v)
+        for (auto [t, c] : topo.incidences(v))
+            gmin[static_cast<std::size_t>(v)] = std::min(gmin[static_cast<std::size_t>(v)], ku(t) + topo.scale(t));
+    BuildReport rep;
+    for (int v = 0; v < topo.vertexCount(); ++v) {
+        if (topo.kind(v) == TileTopology::VertexKind::Constrained) ++rep.constrainedVertices;
+        if (topo.kind(v) != TileTopology::VertexKind::TJunction) continue;
+        ++rep.tJunctions;
+        // The quad's clamp is linear along its whole edge, each sub-face's along its half:
+        // they agree only if the edge's two ends and its midpoint allow the same resolution.
+        const auto [t, c] = topo.incidences(v).front();
+        const TileTopology::Link* l = topo.linkAt(t, c, 0.0);
+        if (!l || l->beta == 1.0) l = topo.linkAt(t, (c + 3) & 3, 1.0);
+        const int quad = l ? l->tile : -1;
+        const int g = gmin[static_cast<std::size_t>(v)];
+        bool ok = quad >= 0 && ku(quad) == g;
+        for (int qc = 0; ok && quad >= 0 && qc < 4; ++qc)
+            for (const TileTopology::Link& ql : topo.links(quad, qc))
+                if (ql.tile == t)
+                    ok = ok && gmin[static_cast<std::size_t>(topo.cornerVertex(quad, qc))] == g &&
+                         gmin[static_cast<std::size_t>(topo.cornerVertex(quad, (qc + 1) & 3))] == g;
+        for (auto [st, sc] : topo.incidences(v)) ok = ok && ku(st) + 1 == g;
+        if (!ok)
+            throw ArgumentError(name + ": tile sizes at the T-junction between face " +
+                                std::to_string(topo.baseFace(t) + 1) + " (not a quad) and quad face " +
+                                std::to_string(quad >= 0 ? topo.baseFace(quad) + 1 : 0) +
+                                " must match: the quad's k must be the sub-faces' k + 1 and equal the smallest k at "
+                                "the edge's ends (see uniformTileSizes)");
+    }
+
+    // Samples at the sub-patch centres of each tile's finest level.
+    std::vector<std::vector<double>> samples(static_cast<std::size_t>(n));
+    double maxAbs = 0.0;
+    for (int t = 0; t < n; ++t) {
+        const int s = 1 << ku(t);
+        auto& y = samples[static_cast<std::size_t>(t)];
+        y.resize(static_cast<std::size_t>(s * s));
+        for (int j = 0; j < s; ++j)
+            for (int i = 0; i < s; ++i) {
+                const double uu = (i + 0.5) / s, vv = (j + 0.5) / s;
+                const double d = source(t, uu, vv);
+                if (!std::isfinite(d))
+                    throw ArgumentError(name + ": displacement source gave " + std::to_string(d) + " at Ptex face " +
+                                        std::to_string(t) + ", (u, v) = (" + std::to_string(uu) + ", " +
+                                        std::to_string(vv) + ")");
+                y[static_cast<std::size_t>(j * s + i)] = d;
+                maxAbs = std::max(maxAbs, std::abs(d));
+            }
+    }
+
+    detail::TileBuild b(topo, k);
+    for (int t = 0; t < n; ++t) {
+        const int s = 1 << ku(t);
+        for (int j = 0; j < s; ++j)
+            for (int i = 0; i < s; ++i) b.fitAt(t, i + 1, j + 1) = samples[static_cast<std::size_t>(t)][static_cast<std::size_t>(j * s + i)];
+    }
+    for (rep.sweeps = 1; rep.sweeps <= options.maxSweeps; ++rep.sweeps) {
+        b.finalize(options.filter);
+        rep.lastChange = b.solveSweep(samples);
+        if (rep.lastChange <= options.tolerance * (1.0 + maxAbs)) break;
+    }
+    rep.sweeps = std::min(rep.sweeps, options.maxSweeps);
+    b.finalize(options.filter);
+
+    TileSet out;
+    out.filter = options.filter;
+    out.topologyHash = topologyHash(mesh);
+    out.tiles.resize(static_cast<std::size_t>(n));
+    for (int t = 0; t < n; ++t) {
+        Tile& tile = out.tiles[static_cast<std::size_t>(t)];
+        tile.k = ku(t);
+        for (int c = 0; c < 4; ++c)
+            tile.sizeDifferences[static_cast<std::size_t>(c)] = static_cast<std::uint8_t>(
+                ku(t) + topo.scale(t) - gmin[static_cast<std::size_t>(topo.cornerVertex(t, c))]);
+        for (int m = 0; m < ku(t); ++m)
+            for (double x : b.level(t)[static_cast<std::size_t>(m)]) tile.coefficients.push_back(static_cast<float>(x));
+        // Interpolation residual at the samples, on the double coefficients.
+        const int s = 1 << ku(t);
+        for (int j = 0; j < s; ++j)
+            for (int i = 0; i < s; ++i) {
+                double d = 0.0;
+                for (int bb = 0; bb < 3; ++bb)
+                    for (int a = 0; a < 3; ++a)
+                        d += (a == 1 ? 0.75 : 0.125) * (bb == 1 ? 0.75 : 0.125) *
+                             b.level(t)[0][static_cast<std::size_t>((j + bb) * (s + 2) + i + a)];
+                const double r = std::abs(d - samples[static_cast<std::size_t>(t)][static_cast<std::size_t>(j * s + i)]);
+                rep.maxResidual = std::max(rep.maxResidual, r);
+                bool nearConstraint = false;
+                for (int c = 0; c < 4; ++c) {
+                    // samples whose 3 x 3 stencil reads the corner's 2 x 2 block
+                    const bool ni = (c == 1 || c == 2) ? i >= s - 2 : i <= 1;
+                    const bool nj = (c >= 2) ? j >= s - 2 : j <= 1;
+                    if (ni && nj &&
+                        topo.kind(topo.cornerVertex(t, c)) == TileTopology::VertexKind::Constrained)
+                        nearConstraint = true;
+                }
+                if (!nearConstraint) rep.maxResidualAwayFromConstraints = std::max(rep.maxResidualAwayFromConstraints, r);
+            }
+    }
+    if (report) *report = rep;
+    return out;
+}
+
+} // namespace dispmap

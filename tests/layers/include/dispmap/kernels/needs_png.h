@@ -1,0 +1,3 @@
+#pragma once
+// Fixture of the layering test: a kernel header that needs libpng.
+#include <png.h>
