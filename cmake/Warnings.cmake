@@ -1,6 +1,6 @@
 # Strict warnings as errors for every target this project builds (consumers of the
 # installed package do not inherit them). -ffp-contract=off keeps the CPU from fusing
-# multiply-adds, so that C++ and GLSL evaluate the same expressions (see notes/lavapipe).
+# multiply-adds, so that C++ and GLSL evaluate the same expressions (docs/lavapipe.md).
 add_library(dispmap_warnings INTERFACE)
 target_compile_options(dispmap_warnings INTERFACE
   -Wall -Wextra -Wpedantic -Werror

@@ -1,4 +1,4 @@
-// dispmap_glslgen: writes the GLSL mirror of the C++ kernel headers (DESIGN.md, "Kernels
+// dispmap_glslgen: writes the GLSL mirror of the C++ kernel headers (docs/design.md, "Kernels
 // written once"). It never translates: it copies the text between
 //     // dispmap:glsl-begin [double]      and      // dispmap:glsl-end
 // verbatim, adds a header, an include guard, the includes of the kernel headers it depends

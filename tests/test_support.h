@@ -8,7 +8,14 @@
 
 namespace dmtest {
 
-inline std::string dataPath(const std::string& file) { return std::string(DISPMAP_TEST_DATA) + "/" + file; }
+inline std::string dataPath(const std::string& file) {
+    // Appended piecewise: GCC 12 at -O2 reports a false -Warray-bounds inside libstdc++ for
+    // std::string(literal) + "/" + file in some translation units.
+    std::string path = DISPMAP_TEST_DATA;
+    path += '/';
+    path += file;
+    return path;
+}
 
 inline dispmap::ControlMesh shape(const std::string& name) {
     return dispmap::ControlMesh::fromObjFile(dataPath(name + ".obj"));

@@ -1,5 +1,5 @@
 #pragma once
-// CPU/GPU parity of every kernel (DESIGN.md, "Kernels written once"): each kernel runs over
+// CPU/GPU parity of every kernel (docs/design.md, "Kernels written once"): each kernel runs over
 // a large set of inputs in a compute shader and in C++, and the results are compared under
 // the kernel's stated precision contract.
 //

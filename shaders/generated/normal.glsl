@@ -58,7 +58,7 @@ DM_TFUNC void dmNormalDerivWeingarten(rvec3 su, rvec3 sv, rvec3 suu, rvec3 suv, 
     }
 }
 
-// The cross-product route (notes/algorithms.md §4, OpenSubdiv's osd/glslPatchCommon.glsl):
+// The cross-product route (OpenSubdiv's osd/glslPatchCommon.glsl):
 // n = s_u x s_v, n_u = s_uu x s_v + s_u x s_uv, N_u = (n_u - N (N . n_u)) / |n|. Used as the
 // independent check of the Weingarten route; |n| is bounded below as there.
 DM_TFUNC void dmNormalDerivCross(rvec3 su, rvec3 sv, rvec3 suu, rvec3 suv, rvec3 svv, rvec3 N, real sinMin,
@@ -177,7 +177,7 @@ DM_TFUNC void dmNormalDerivWeingarten(rvec3 su, rvec3 sv, rvec3 suu, rvec3 suv, 
 }
 #line 75 "include/dispmap/kernels/normal.h"
 
-// The cross-product route (notes/algorithms.md §4, OpenSubdiv's osd/glslPatchCommon.glsl):
+// The cross-product route (OpenSubdiv's osd/glslPatchCommon.glsl):
 // n = s_u x s_v, n_u = s_uu x s_v + s_u x s_uv, N_u = (n_u - N (N . n_u)) / |n|. Used as the
 // independent check of the Weingarten route; |n| is bounded below as there.
 DM_TFUNC void dmNormalDerivCross(rvec3 su, rvec3 sv, rvec3 suu, rvec3 suv, rvec3 svv, rvec3 N, real sinMin,

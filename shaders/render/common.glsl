@@ -1,7 +1,7 @@
 // The tessellation renderer's shared declarations: specialisation constants (the effects a
 // scene asks for), the descriptor bindings and the small gathers between kernel calls. Every
 // formula lives in the generated kernels; what is here only fetches data and calls them.
-// Layouts mirror backend_vulkan/src/render_data.h (static_asserts there).
+// Layouts mirror the Gpu* structs of backend_vulkan/src/renderer.cpp (static_asserts there).
 #include "prelude.glsl"
 #include "sum.glsl"
 #include "bspline.glsl"

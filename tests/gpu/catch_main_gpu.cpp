@@ -1,10 +1,11 @@
 // The main of the GPU tests: creates the shared Vulkan context first and exits 77 (skipped) when
 // there is no loader, device or validation layer, or 1 with DISPMAP_REQUIRE_GPU=1. Validation
 // messages that a test case did not check are collected per test case and fail the run.
-#define CATCH_CONFIG_RUNNER
+// Catch2's implementation is tests/catch_impl.cpp.
 #include <cstdio>
 #include <memory>
 
+#include "../catch_run.h"
 #include "gpu_support.h"
 
 namespace {
@@ -47,12 +48,8 @@ dispmap::vulkan::Context& context() {
 } // namespace dmgpu
 
 int main(int argc, char* argv[]) {
-    Catch::Session session;
-    if (const int rc = session.applyCommandLine(argc, argv); rc != 0) return rc;
-    const Catch::ConfigData& config = session.configData();
-    const bool listing = config.showHelp || config.listTests || config.listTestNamesOnly || config.listTags ||
-                         config.listReporters;
-    if (!listing) {
+    int result = dmtest::runCatch(argc, argv, [](bool listing) {
+        if (listing) return 0;
         try {
             const auto& ctx = dmgpu::context();
             std::printf("gpu tests on '%s' (validation %s, float64 %s, timestamps %s)\n",
@@ -67,9 +64,8 @@ int main(int argc, char* argv[]) {
             std::printf("gpu tests skipped: %s\n", e.what());
             return 77;
         }
-    }
-
-    int result = session.run();
+        return 0;
+    });
     collectLeftovers("after the tests");
     if (!leftoverMessages().empty()) {
         std::printf("%zu validation message(s) not checked by the tests:\n", leftoverMessages().size());

@@ -26,7 +26,7 @@ namespace dispmap {
 inline constexpr int kMinTileLog2 = 1;
 inline constexpr int kMaxTileLog2 = 8;
 
-/// How coarser mip levels are computed from finer ones (§4.3; notes/algorithms.md §1).
+/// How coarser mip levels are computed from finer ones (§4.3; docs/design.md).
 enum class MipFilter : std::uint8_t {
     Haar = 0,     ///< mean of the 2 x 2 children: smooth, positive weights, shifts curved data
     BWavelet = 1, ///< lifted quadratic B-wavelet low-pass (-1, 3, 3, -1)/4: exact on quadratics

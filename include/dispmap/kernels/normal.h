@@ -1,6 +1,6 @@
 #pragma once
 // Normals of the base and the displaced surface (Nießner & Loop 2013, §5.1, §5.2, §5.4;
-// notes/algorithms.md §4).
+// checked against finite differences and the cross-product route in tests/test_surface.cpp).
 //
 //   f = s + N D,   f_u = s_u + N_u D + N D_u,   f_v likewise,   N_f = f_u x f_v / |f_u x f_v|
 //
@@ -73,7 +73,7 @@ DM_TFUNC void dmNormalDerivWeingarten(rvec3 su, rvec3 sv, rvec3 suu, rvec3 suv, 
     }
 }
 
-// The cross-product route (notes/algorithms.md §4, OpenSubdiv's osd/glslPatchCommon.glsl):
+// The cross-product route (OpenSubdiv's osd/glslPatchCommon.glsl):
 // n = s_u x s_v, n_u = s_uu x s_v + s_u x s_uv, N_u = (n_u - N (N . n_u)) / |n|. Used as the
 // independent check of the Weingarten route; |n| is bounded below as there.
 DM_TFUNC void dmNormalDerivCross(rvec3 su, rvec3 sv, rvec3 suu, rvec3 suv, rvec3 svv, rvec3 N, real sinMin,

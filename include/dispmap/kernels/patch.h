@@ -1,6 +1,6 @@
 #pragma once
 // The Catmull-Clark base surface on the GPU: OpenSubdiv Far::PatchTable patches evaluated
-// from their control points (DESIGN.md, Conventions, "The base surface on the GPU").
+// from their control points (docs/design.md, Conventions, "The base surface on the GPU").
 // Source: regular patches are the bicubic uniform B-spline limit of Catmull-Clark (Stam 1998)
 // with OpenSubdiv's boundary rule; irregular ones are the end caps Far builds, either
 // Gregory-basis patches (Loop, Schaefer, Ni & Castaño 2009, "Approximating subdivision

@@ -18,7 +18,7 @@
 //                                                          behind DM_ENABLE_DOUBLE)
 //   rvec2..4, rmat3   glm::vec<N, real>, glm::mat<3,3,real> vec2..4, mat3 (double: dvec2.., dmat3)
 //
-// Rules of the subset (DESIGN.md): free functions with a `dm` prefix; scalar, vector and
+// Rules of the subset (docs/design.md): free functions with a `dm` prefix; scalar, vector and
 // matrix types only; no pointers, references outside DM_OUT/DM_INOUT, default arguments,
 // recursion, swizzles, brace initialisation or struct constructors; literals written as
 // real(0.5) so that they mean the same at both precisions. A DM_TFUNC must take at least

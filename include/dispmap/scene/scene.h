@@ -123,7 +123,11 @@ class SceneReader {
     }
     static std::string describe(const Json& j) {
         std::string s = j.dump();
-        return s.size() > 40 ? s.substr(0, 37) + "..." : s;
+        if (s.size() > 40) {
+            s.resize(37);
+            s += "...";
+        }
+        return s;
     }
 
     // j must be an object whose keys are all in `known`; `what` is "key" or "effect".

@@ -1,6 +1,6 @@
 #pragma once
 // BaseSurface: the Catmull-Clark limit surface s(face, u, v) of a control mesh and its first
-// and second derivatives, evaluated by OpenSubdiv (Nießner & Loop 2013, §5.4; DESIGN.md).
+// and second derivatives, evaluated by OpenSubdiv (Nießner & Loop 2013, §5.4; docs/design.md).
 //
 // Route: Far feature-adaptive refinement and a Far::PatchTable (regular bicubic B-spline
 // patches where the mesh is regular, Gregory-basis end caps around extraordinary vertices at

@@ -2,7 +2,7 @@
 // PackedSurface: the base surface as the GPU reads it: the Far::PatchTable of a BaseSurface
 // flattened into std430-ready arrays (control points, patch records, a per-face quadtree that
 // locates the patch of a (face, u, v) like Far::PatchMap), and evaluate(), the CPU twin of the
-// shader evaluation with the kernels of kernels/patch.h (DESIGN.md, Conventions, "The base
+// shader evaluation with the kernels of kernels/patch.h (docs/design.md, Conventions, "The base
 // surface on the GPU").
 //
 // The quadtree: faceRoots[face] is kLeaf | patch when one patch covers the whole Ptex face,

@@ -1,4 +1,4 @@
-// Bit-parity smoke test of the backend (notes/lavapipe.md): y = sqrt(|p(x)|) / (1 + x^2) with p
+// Bit-parity smoke test of the backend (docs/lavapipe.md): y = sqrt(|p(x)|) / (1 + x^2) with p
 // a degree-5 polynomial in Horner form, in float, or in double with -DDM_DOUBLE.
 // test_vulkan_backend.cpp evaluates the same expression in C++ and expects 0 ULP difference.
 #version 450
