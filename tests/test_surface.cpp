@@ -606,6 +606,48 @@ TEST_CASE("base surface: derivatives equal finite differences, exactly in regula
            worst1[0], worst2[0], count[1], worst1[1], worst2[1]);
 }
 
+TEST_CASE("base surface: moved control points refine like a surface built from the moved cage", "[surface]") {
+    // Animation (paper §4.1): setControlPoints reuses the refiner, patch table and patch map, so
+    // it must give what a new BaseSurface of the moved mesh gives, bit for bit (the same
+    // stencils applied to the same positions). Shapes: extraordinary vertices, N-gons,
+    // boundaries, creases and corners, Gregory and B-spline end caps.
+    for (const char* name : {"catmark_pole8", "catmark_nonquads", "catmark_edgecorner", "catmark_tent_creases0", "catmark_helmet"})
+        for (bool gregory : {true, false}) {
+            CAPTURE(name, gregory);
+            const ControlMesh mesh = dmtest::shape(name);
+            BaseSurfaceOptions o;
+            o.gregoryEndCaps = gregory;
+            BaseSurface animated(mesh, o);
+            MeshDescription moved = mesh.description();
+            for (std::size_t v = 0; v < moved.positions.size(); ++v) {
+                const double t = double(v);
+                moved.positions[v] += dvec3(0.1 * std::sin(t), 0.07 * std::cos(1.3 * t), 0.05 * std::sin(0.7 * t + 1.0));
+            }
+            animated.setControlPoints(moved.positions);
+            const BaseSurface fresh(ControlMesh(moved), o);
+            REQUIRE(animated.points() == fresh.points());
+            for (int f = 0; f < fresh.faceCount(); ++f) {
+                if (fresh.isHole(f)) continue;
+                for (int c = 0; c < 4; ++c) CHECK(animated.cornerNormal(f, c) == fresh.cornerNormal(f, c));
+                const BaseSample<double> a = animated.evaluate<double>(f, 0.3, 0.6), b = fresh.evaluate<double>(f, 0.3, 0.6);
+                CHECK(a.p == b.p);
+                CHECK(a.duv == b.duv);
+                const BaseSample<float> af = animated.evaluate<float>(f, 0.3f, 0.6f), bf = fresh.evaluate<float>(f, 0.3f, 0.6f);
+                CHECK(af.p == bf.p);
+            }
+            // And back: the original positions give the original surface.
+            animated.setControlPoints(mesh.description().positions);
+            CHECK(animated.points() == BaseSurface(mesh, o).points());
+        }
+    BaseSurface s(dmtest::shape("catmark_cube"));
+    std::vector<dvec3> p = dmtest::shape("catmark_cube").description().positions;
+    const std::vector<dvec3> before = s.points();
+    CHECK_THROWS_WITH(s.setControlPoints(std::vector<dvec3>(p.begin(), p.end() - 1)), Catch::Contains("7 control points given, the mesh has 8"));
+    p[3].y = std::numeric_limits<double>::quiet_NaN();
+    CHECK_THROWS_WITH(s.setControlPoints(p), Catch::Contains("control point 4 has a NaN or infinite coordinate"));
+    CHECK(s.points() == before); // nothing changed
+}
+
 TEST_CASE("base surface: float evaluation against double", "[surface]") {
     // evaluate<float> rounds the control points once (relative eps_f / 2) and computes the
     // basis and the sums in float. Its error is bounded by K eps_f times the condition of

@@ -98,7 +98,21 @@ class BaseSurface {
     /// for a face id out of range, a hole, or (u, v) outside [0, 1]^2 or not finite.
     template <typename real> BaseSample<real> evaluate(int face, real u, real v, bool second = true) const;
 
+    /// Animation (Nießner & Loop 2013, §4.1): new positions of the control mesh's vertices
+    /// (same count and order as the mesh it was built from) refined through the existing
+    /// refiner and the patch table's local-point stencils; the topology, patch table and patch
+    /// map are kept. Afterwards points() and cornerNormal() describe the moved surface exactly
+    /// as a BaseSurface built from the moved mesh would (bit for bit: the same arithmetic).
+    /// Throws ArgumentError for a wrong count or a NaN/Inf coordinate (nothing changes then).
+    /// A DisplacedSurface built on this surface sees the moved surface; its auto-normal choice
+    /// per face was made for the old shape.
+    void setControlPoints(const std::vector<glm::dvec3>& positions);
+    /// Number of control-mesh vertices setControlPoints expects.
+    int controlPointCount() const { return refiner_->GetLevel(0).GetNumVertices(); }
+
   private:
+    void refinePoints(const std::vector<glm::dvec3>& positions);
+    void computeCornerNormals();
     template <typename real> const std::vector<glm::vec<3, real>>& points() const;
     BaseSurfaceOptions options_;
     int faceCount_ = 0;
@@ -161,26 +175,7 @@ inline BaseSurface::BaseSurface(const ControlMesh& mesh, BaseSurfaceOptions opti
     if (!table_) throw MeshError(name_ + ": OpenSubdiv could not build a patch table");
     map_ = std::make_unique<Far::PatchMap>(*table_);
 
-    // Refined vertices of all levels, then the local points of the end caps.
-    const MeshDescription& d = mesh.description();
-    const int total = refiner_->GetNumVerticesTotal();
-    std::vector<detail::OsdPoint> pts(static_cast<std::size_t>(total + table_->GetNumLocalPoints()));
-    for (std::size_t i = 0; i < d.positions.size(); ++i) pts[i].p = d.positions[i];
-    Far::PrimvarRefinerReal<double> primvar(*refiner_);
-    detail::OsdPoint* src = pts.data();
-    for (int level = 1; level < refiner_->GetNumLevels(); ++level) {
-        detail::OsdPoint* dst = src + refiner_->GetLevel(level - 1).GetNumVertices();
-        primvar.Interpolate(level, src, dst);
-        src = dst;
-    }
-    if (table_->GetNumLocalPoints() > 0)
-        table_->GetLocalPointStencilTable<double>()->UpdateValues(pts.data(), pts.data() + total);
-    pointsD_.reserve(pts.size());
-    pointsF_.reserve(pts.size());
-    for (const detail::OsdPoint& q : pts) {
-        pointsD_.push_back(q.p);
-        pointsF_.push_back(glm::vec3(q.p));
-    }
+    refinePoints(mesh.description().positions);
 
     // Holes: Ptex faces without patches.
     hole_.assign(static_cast<std::size_t>(faceCount_), 1);
@@ -190,10 +185,45 @@ inline BaseSurface::BaseSurface(const ControlMesh& mesh, BaseSurfaceOptions opti
             if (f >= 0 && f < faceCount_) hole_[static_cast<std::size_t>(f)] = 0;
         }
 
-    // Extraordinary corners and their limit normals (Gregory end caps interpolate the limit
-    // position and tangents at a patch corner, so s_u x s_v there is the limit normal; B-spline
-    // end caps approximate it).
+    // Extraordinary corners (fixed by the topology) and their limit normals (moved by
+    // setControlPoints).
     evCorner_.assign(static_cast<std::size_t>(faceCount_), {0, 0, 0, 0});
+    for (int f = 0; f < faceCount_; ++f) {
+        if (isHole(f)) continue;
+        for (int c = 0; c < 4; ++c)
+            evCorner_[static_cast<std::size_t>(f)][static_cast<std::size_t>(c)] =
+                topology_.kind(topology_.cornerVertex(f, c)) == TileTopology::VertexKind::Constrained ? 1 : 0;
+    }
+    computeCornerNormals();
+}
+
+inline void BaseSurface::refinePoints(const std::vector<glm::dvec3>& positions) {
+    // Refined vertices of all levels, then the local points of the end caps.
+    const int total = refiner_->GetNumVerticesTotal();
+    std::vector<detail::OsdPoint> pts(static_cast<std::size_t>(total + table_->GetNumLocalPoints()));
+    for (std::size_t i = 0; i < positions.size(); ++i) pts[i].p = positions[i];
+    Far::PrimvarRefinerReal<double> primvar(*refiner_);
+    detail::OsdPoint* src = pts.data();
+    for (int level = 1; level < refiner_->GetNumLevels(); ++level) {
+        detail::OsdPoint* dst = src + refiner_->GetLevel(level - 1).GetNumVertices();
+        primvar.Interpolate(level, src, dst);
+        src = dst;
+    }
+    if (table_->GetNumLocalPoints() > 0)
+        table_->GetLocalPointStencilTable<double>()->UpdateValues(pts.data(), pts.data() + total);
+    pointsD_.clear();
+    pointsF_.clear();
+    pointsD_.reserve(pts.size());
+    pointsF_.reserve(pts.size());
+    for (const detail::OsdPoint& q : pts) {
+        pointsD_.push_back(q.p);
+        pointsF_.push_back(glm::vec3(q.p));
+    }
+}
+
+inline void BaseSurface::computeCornerNormals() {
+    // Gregory end caps interpolate the limit position and tangents at a patch corner, so
+    // s_u x s_v there is the limit normal; B-spline end caps approximate it.
     cornerNormal_.assign(static_cast<std::size_t>(faceCount_), {});
     for (int f = 0; f < faceCount_; ++f) {
         if (isHole(f)) continue;
@@ -203,11 +233,19 @@ inline BaseSurface::BaseSurface(const ControlMesh& mesh, BaseSurfaceOptions opti
             const glm::dvec3 fallback(0, 0, 1);
             cornerNormal_[static_cast<std::size_t>(f)][static_cast<std::size_t>(c)] =
                 kern::dmBaseNormal(s.du, s.dv, s.duu, s.duv, s.dvv, uv, fallback);
-            const int vtx = topology_.cornerVertex(f, c);
-            evCorner_[static_cast<std::size_t>(f)][static_cast<std::size_t>(c)] =
-                topology_.kind(vtx) == TileTopology::VertexKind::Constrained ? 1 : 0;
         }
     }
+}
+
+inline void BaseSurface::setControlPoints(const std::vector<glm::dvec3>& positions) {
+    if (static_cast<int>(positions.size()) != controlPointCount())
+        throw ArgumentError(name_ + ": " + std::to_string(positions.size()) + " control points given, the mesh has " +
+                            std::to_string(controlPointCount()));
+    for (std::size_t i = 0; i < positions.size(); ++i)
+        if (!std::isfinite(positions[i].x) || !std::isfinite(positions[i].y) || !std::isfinite(positions[i].z))
+            throw ArgumentError(name_ + ": control point " + std::to_string(i + 1) + " has a NaN or infinite coordinate");
+    refinePoints(positions);
+    computeCornerNormals();
 }
 
 template <typename real> void BaseSurface::checkPoint(int face, real u, real v) const {
