@@ -304,6 +304,7 @@ struct Header {
     std::vector<std::string> deps; // stems of kernel headers it includes
     int begin = -1, end = -1;      // 0-based marker lines
     bool doubleVariant = false;
+    std::string checkWith; // a GLSL file (shaders/-relative) that includes this one: the check shader's include
     std::vector<Item> items;
 };
 
@@ -321,12 +322,16 @@ Header readHeader(const fs::path& p, const fs::path& root) {
         if (s.rfind("// dispmap:glsl-begin", 0) == 0) {
             if (h.begin >= 0) fail(h.display, i + 1, "second dispmap:glsl-begin (one marked region per header)");
             h.begin = i;
-            std::string opt = s.substr(std::string("// dispmap:glsl-begin").size());
-            opt.erase(0, opt.find_first_not_of(" \t"));
-            if (opt == "double") {
-                h.doubleVariant = true;
-            } else if (!opt.empty()) {
-                fail(h.display, i + 1, "unknown option '" + opt + "' (only 'double')");
+            std::istringstream opts(s.substr(std::string("// dispmap:glsl-begin").size()));
+            for (std::string opt; opts >> opt;) {
+                if (opt == "double") {
+                    h.doubleVariant = true;
+                } else if (opt == "check-with" && (opts >> h.checkWith)) {
+                    // Kernels whose includer supplies declarations (kernels/meso_march.h: the
+                    // maps and fetch functions) are checked through that includer.
+                } else {
+                    fail(h.display, i + 1, "unknown option '" + opt + "' (double, check-with FILE)");
+                }
             }
         } else if (s.rfind("// dispmap:glsl-end", 0) == 0) {
             if (h.begin < 0 || h.end >= 0) fail(h.display, i + 1, "dispmap:glsl-end without a begin");
@@ -428,9 +433,10 @@ std::string emitPrelude() {
 
 // A compute shader that only includes one generated file, with the double variants enabled:
 // compiling it checks the float and the double text (and those of its dependencies).
+// A kernel checked with an includer is compiled through that file (found on shaders/).
 std::string emitCheckShader(const Header& h) {
     return "#version 450\n#extension GL_GOOGLE_include_directive : require\n#define DM_ENABLE_DOUBLE\n#include \"" +
-           h.stem + ".glsl\"\nlayout(local_size_x = 1) in;\nvoid main() {}\n";
+           (h.checkWith.empty() ? h.stem + ".glsl" : h.checkWith) + "\"\nlayout(local_size_x = 1) in;\nvoid main() {}\n";
 }
 
 void writeIfChanged(const fs::path& p, const std::string& text) {

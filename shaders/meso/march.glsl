@@ -1,8 +1,8 @@
-// The mesostructure marchers on the GPU: the twin of include/dispmap/meso/march.h
-// (marchDistanceMap, marchDdm over the compressed map, marchHeightSearch), statement by
-// statement, so that lavapipe (which does not fuse multiply-adds; the C++ side is built with
-// -ffp-contract=off) gives the same hits, parameters and iteration counts bit for bit.
-// Only loops and memory reads live here; every formula is a kernel of kernels/meso.h.
+// The mesostructure marchers on the GPU: the memory of the loops that kernels/meso_march.h
+// writes once for the CPU and the GPU (generated into meso_march.glsl). Only buffer reads
+// live here; with NoContraction on the float operations (backend_vulkan/tools/spirv_exact.cpp)
+// lavapipe gives the hits, parameters and iteration counts of include/dispmap/meso/march.h
+// bit for bit.
 //
 // The includer defines DM_MESO_SET and DM_MESO_BINDING (the first of five consecutive
 // storage-buffer bindings) before including this file, and fills a DmMesoSize from the host
@@ -83,101 +83,39 @@ float dmMesoDdmLookup(DmMesoSize s, int c, int i0, int j0, int k) {
     return dmMesoAtlas[atlasIndex * (b * b * b) + ((k % b) * b + j % b) * b + i % b];
 }
 
-// marchDistanceMap<float>.
+// The includer's side of kernels/meso_march.h (the loops, generated into meso_march.glsl):
+// the maps are the buffers above, named by their sizes.
+#define DmMesoMaps DmMesoSize
+float dmMesoFetchDistance(DmMesoSize s, int i, int j, int k) {
+    return dmMesoDistanceAt(s, i, j, k);
+}
+float dmMesoFetchDdm(DmMesoSize s, int c, int i, int j, int k) {
+    return dmMesoDdmLookup(s, c, i, j, k);
+}
+vec4 dmMesoFetchCell(DmMesoSize s, int i, int j) {
+    return dmMesoCell(s, i, j);
+}
+vec4 dmMesoFetchQuadric(DmMesoSize s, int i, int j, int part) {
+    return dmMesoQuadrics[3 * (dmMesoWrap(j, s.height) * s.width + dmMesoWrap(i, s.width)) + part];
+}
+#include "meso_march.glsl"
+
+// The marchers as the stage shaders call them (meso.frag, parity_meso.comp).
 DmMesoHit dmMarchDistanceMap(DmMesoSize s, vec3 o, vec3 d, int iterations, float eps) {
     DmMesoHit r;
-    r.hit = false;
-    r.iterations = 0;
-    float t = 0.0;
-    int status = 0;
-    for (int i = 0; i < iterations && status == 0; ++i) {
-        vec3 f;
-        ivec3 c = dmDistanceSampleCell(o + d * t, s.layers, f);
-        vec4 lo = vec4(dmMesoDistanceAt(s, c.x, c.y, c.z), dmMesoDistanceAt(s, c.x + 1, c.y, c.z),
-                       dmMesoDistanceAt(s, c.x + 1, c.y + 1, c.z), dmMesoDistanceAt(s, c.x, c.y + 1, c.z));
-        vec4 hi = vec4(dmMesoDistanceAt(s, c.x, c.y, c.z + 1), dmMesoDistanceAt(s, c.x + 1, c.y, c.z + 1),
-                       dmMesoDistanceAt(s, c.x + 1, c.y + 1, c.z + 1), dmMesoDistanceAt(s, c.x, c.y + 1, c.z + 1));
-        ++r.iterations;
-        status = dmSphereTraceStep(t, dmTrilerp(lo, hi, f), eps, o, d, s.layers);
-    }
-    r.hit = status != 2;
-    r.t = t;
+    r.hit = dmMesoMarchDistance(s, o, d, iterations, eps, r.t, r.iterations);
     return r;
 }
-
-// marchDdm<float> over CompressedDdmView (the host checks the shadow-cone and quadric
-// preconditions).
 DmMesoHit dmMarchDdm(DmMesoSize s, vec3 o, vec3 d, int maxIterations, bool quadrics, int exitRule) {
-    int cone = dmConeIndex(d, s.coneM, s.coneN);
     DmMesoHit r;
-    r.hit = true; // until the ray leaves: running out of iterations is a hit (as marchDdm)
-    r.iterations = 0;
-    float t = 0.0;
-    ivec3 v = dmVoxelAt(o, d);
-    for (int i = 0; i < maxIterations; ++i) {
-        int slab = dmSlabStatus(v, s.layers);
-        if (slab != 0) {
-            r.hit = slab == 1;
-            if (r.hit && d.z < 0.0) {
-                t = max(t, dmPlaneHit(o, d, 0.0));
-            }
-            break;
-        }
-        ++r.iterations;
-        float dist = dmMesoDdmLookup(s, cone, v.x, v.y, v.z);
-        vec4 qa = vec4(0.0); // without quadrics a 0 voxel is the hit
-        vec4 qb = vec4(0.0);
-        vec4 qc = vec4(0.0, 1.0, 0.0, 0.0);
-        if (dist <= 0.0 && quadrics) {
-            int at = 3 * (dmMesoWrap(v.y, s.height) * s.width + dmMesoWrap(v.x, s.width));
-            dmVoxelQuadric(dmMesoQuadrics[at], dmMesoQuadrics[at + 1], dmMesoQuadrics[at + 2], v.z, qa, qb, qc);
-        }
-        vec3 qo = vec3(float(v.x), float(v.y), 0.0);
-        if (dmDdmStep(t, v, dist, qa, qb, qc, qo, o, d, exitRule, s.tol) == 1) {
-            r.hit = true;
-            break;
-        }
-    }
-    r.t = t;
+    r.hit = dmMesoMarchDdm(s, o, d, s.coneM, s.coneN, maxIterations, quadrics, exitRule, s.tol, r.t, r.iterations);
     return r;
 }
-
-// marchHeightSearch<float>: relief mapping (binary >= 0 bisections) or POM (binary < 0).
-// View rays only (d.z < 0; the host checks), linear >= 1.
-float dmMesoAbove(DmMesoSize s, vec3 o, vec3 d, float t, inout int iterations) {
-    vec3 p = o + d * t;
-    vec2 f;
-    ivec2 c = dmHeightCell(vec2(p.x, p.y), f);
-    ++iterations;
-    return dmHeightAbove(p, dmMesoCell(s, c.x, c.y), f);
-}
-
+// Relief mapping (binary >= 0 bisections) or POM (binary < 0); view rays only (d.z < 0; the
+// host checks), linear >= 1.
 DmMesoHit dmMarchHeightSearch(DmMesoSize s, vec3 o, vec3 d, int linear, int binary) {
     DmMesoHit r;
-    r.hit = false;
-    r.iterations = 0;
-    float tEnd = dmPlaneHit(o, d, 0.0);
-    float dt = tEnd / float(linear);
-    vec2 bracket = vec2(0.0, dt);
-    float abovePrev = binary < 0 ? dmMesoAbove(s, o, d, 0.0, r.iterations) : 0.0;
-    float aboveCur = 0.0;
-    for (int i = 0; i < linear; ++i) {
-        aboveCur = dmMesoAbove(s, o, d, bracket.y, r.iterations);
-        float keep = aboveCur;
-        if (dmLinearSearchStep(bracket, dt, aboveCur)) {
-            break;
-        }
-        abovePrev = keep;
-    }
-    r.hit = true;
-    if (binary < 0) {
-        r.t = dmPomIntersect(bracket, abovePrev, aboveCur);
-        return r;
-    }
-    for (int j = 0; j < binary; ++j) {
-        bracket = dmBisectStep(bracket, dmMesoAbove(s, o, d, 0.5 * (bracket.x + bracket.y), r.iterations));
-    }
-    r.t = 0.5 * (bracket.x + bracket.y);
+    r.hit = dmMesoMarchHeight(s, o, d, linear, binary, r.t, r.iterations);
     return r;
 }
 

@@ -1,7 +1,9 @@
 #pragma once
-// The mesostructure marchers on the CPU, in float or double (kernels/meso.h has the voxel
-// space and every step rule; this file only fetches what each step needs, exactly as
-// shaders/meso/march.glsl does on the GPU, so that both give the same hits and counts).
+// The mesostructure marchers on the CPU, in float or double. kernels/meso.h has the voxel
+// space and every step rule and kernels/meso_march.h the marchers' loops, written once for the
+// CPU and the GPU; this file supplies the loops' memory (kern::DmMesoMapsT and its fetch
+// functions, as shaders/meso/march.glsl does on the GPU), checks the inputs and keeps the exact
+// reference, so that both sides give the same hits and counts.
 //
 // A ray is (o, d) in voxel space, d of unit length, usually o on the top plane z = L where
 // the base surface is; MesoHit::t is the parameter of the hit o + t d. `iterations` counts
@@ -15,6 +17,7 @@
 #include "dispmap/meso/distance_map.h"
 #include "dispmap/meso/height_field.h"
 #include "dispmap/meso/quadrics.h"
+#include "dispmap/kernels/meso_march.h"
 
 namespace dispmap {
 
@@ -37,6 +40,35 @@ inline void checkRay(const glm::dvec3& o, const glm::dvec3& d, const char* what)
         throw ArgumentError(std::string(what) + ": the ray needs a finite origin and a unit direction");
 }
 } // namespace detail
+
+} // namespace dispmap
+
+namespace dispmap::kern {
+/// The maps the loops of kernels/meso_march.h read on the CPU (any may be null when the
+/// marcher at hand does not read it; the dense DDM is read when it is set, else the compressed
+/// one). The fetch functions below are the CPU's side of the loops' memory.
+template <typename real> struct DmMesoMapsT {
+    int layers = 0;
+    const MesoHeightField* field = nullptr;
+    const DistanceMap* distance = nullptr;
+    const DirectionalDistanceMap* dense = nullptr;
+    const CompressedDdm* compressed = nullptr;
+    const ColumnQuadrics* quadrics = nullptr;
+};
+template <typename real> float dmMesoFetchDistance(const DmMesoMapsT<real>& m, int i, int j, int k) { return m.distance->at(i, j, k); }
+template <typename real> float dmMesoFetchDdm(const DmMesoMapsT<real>& m, int c, int i, int j, int k) {
+    return m.dense ? m.dense->at(c, i, j, k) : m.compressed->lookup(c, i, j, k);
+}
+template <typename real> glm::vec4 dmMesoFetchCell(const DmMesoMapsT<real>& m, int i, int j) { return m.field->cell(i, j); }
+template <typename real> glm::vec4 dmMesoFetchQuadric(const DmMesoMapsT<real>& m, int i, int j, int part) {
+    const ColumnQuadrics& q = *m.quadrics;
+    return q.q[3 * (static_cast<std::size_t>(dispmap::detail::wrapIndex(j, q.height)) * static_cast<std::size_t>(q.width) +
+                    static_cast<std::size_t>(dispmap::detail::wrapIndex(i, q.width))) +
+               static_cast<std::size_t>(part)];
+}
+} // namespace dispmap::kern
+
+namespace dispmap {
 
 /// The exact reference: the ray against the bilinear height field column by column (2D DDA),
 /// with the exact root of each column's quadratic (dmRayHeightCell), in `real`. Stops as a miss
@@ -80,21 +112,13 @@ MesoHit marchReference(const MesoHeightField& hf, const glm::dvec3& o0, const gl
 /// The hit is where the last step ends; a ray that rose through the top is a miss.
 template <class real> MesoHit marchDistanceMap(const DistanceMap& m, const glm::dvec3& o0, const glm::dvec3& d0, int iterations, double eps) {
     detail::checkRay(o0, d0, "marchDistanceMap");
-    using V3 = detail::v3<real>;
-    using V4 = detail::v4<real>;
-    const V3 o(o0), d(d0);
+    kern::DmMesoMapsT<real> maps;
+    maps.layers = m.layers;
+    maps.distance = &m;
     MesoHit r;
     real t = 0;
-    int status = 0;
-    for (int i = 0; i < iterations && status == 0; ++i) {
-        V3 f;
-        const glm::ivec3 c = kern::dmDistanceSampleCell(V3(o + d * t), m.layers, f);
-        const auto at = [&](int di, int dj, int dk) { return static_cast<real>(m.at(c.x + di, c.y + dj, c.z + dk)); };
-        const V4 lo(at(0, 0, 0), at(1, 0, 0), at(1, 1, 0), at(0, 1, 0)), hi(at(0, 0, 1), at(1, 0, 1), at(1, 1, 1), at(0, 1, 1));
-        ++r.iterations;
-        status = kern::dmSphereTraceStep(t, kern::dmTrilerp(lo, hi, f), static_cast<real>(eps), o, d, m.layers);
-    }
-    r.hit = status != 2;
+    r.hit = kern::dmMesoMarchDistance(maps, detail::v3<real>(o0), detail::v3<real>(d0), iterations, static_cast<real>(eps), t,
+                                      r.iterations);
     r.t = static_cast<double>(t);
     return r;
 }
@@ -107,7 +131,7 @@ struct DdmMarch {
 };
 
 /// Algorithm 3.1 (sphere tracing a conservative DDM, quadric intersection 3.2, voxel walls
-/// 3.3) over any map with `float distance(int cone, int i, int j, int k)`; quadrics may be
+/// 3.3; the loop is kern::dmMesoMarchDdm) over DenseDdmView or CompressedDdmView; quadrics may be
 /// null only when options.quadrics is false. A ray that runs out of iterations counts as a hit
 /// at its last point (short of the surface: conservative), so a shadow ray never leaks light
 /// and a view ray never shows the sky through the surface. ArgumentError for an upward ray on
@@ -118,36 +142,14 @@ MesoHit marchDdm(const Map& map, const ConeSet& cones, int layers, const ColumnQ
     detail::checkRay(o0, d0, "marchDdm");
     if (d0.z > 0 && !cones.isotropic && !cones.shadow) throw ArgumentError("marchDdm: an upward (shadow) ray needs shadow cones");
     if (opt.quadrics && !quadrics) throw ArgumentError("marchDdm: quadric intersection needs the column quadrics");
-    using V3 = detail::v3<real>;
-    using V4 = detail::v4<real>;
-    const V3 o(o0), d(d0);
-    const int cone = kern::dmConeIndex(d, cones.kernelM(), cones.n);
+    kern::DmMesoMapsT<real> maps;
+    maps.layers = layers;
+    maps.quadrics = quadrics;
+    map.bind(maps);
     MesoHit r;
-    r.hit = true; // until the ray leaves: running out of iterations is a hit (see above)
     real t = 0;
-    glm::ivec3 v = kern::dmVoxelAt(o, d);
-    for (int i = 0; i < opt.maxIterations; ++i) {
-        const int slab = kern::dmSlabStatus(v, layers);
-        if (slab != 0) {
-            r.hit = slab == 1;
-            if (r.hit && d.z < 0) t = std::max(t, kern::dmPlaneHit(o, d, real(0)));
-            break;
-        }
-        ++r.iterations;
-        const real dist = static_cast<real>(map.distance(cone, v.x, v.y, v.z));
-        V4 qa(0), qb(0), qc(0, 1, 0, 0); // without quadrics a 0 voxel is the hit
-        if (dist <= 0 && opt.quadrics) {
-            const std::size_t at = 3 * (static_cast<std::size_t>(detail::wrapIndex(v.y, quadrics->height)) *
-                                            static_cast<std::size_t>(quadrics->width) +
-                                        static_cast<std::size_t>(detail::wrapIndex(v.x, quadrics->width)));
-            kern::dmVoxelQuadric(V4(quadrics->q[at]), V4(quadrics->q[at + 1]), V4(quadrics->q[at + 2]), v.z, qa, qb, qc);
-        }
-        const V3 qo(static_cast<real>(v.x), static_cast<real>(v.y), real(0));
-        if (kern::dmDdmStep(t, v, dist, qa, qb, qc, qo, o, d, opt.exitRule, mesoRootTolerance<real>()) == 1) {
-            r.hit = true;
-            break;
-        }
-    }
+    r.hit = kern::dmMesoMarchDdm(maps, detail::v3<real>(o0), detail::v3<real>(d0), cones.kernelM(), cones.n, opt.maxIterations,
+                                 opt.quadrics, opt.exitRule, mesoRootTolerance<real>(), t, r.iterations);
     r.t = static_cast<double>(t);
     return r;
 }
@@ -156,11 +158,13 @@ MesoHit marchDdm(const Map& map, const ConeSet& cones, int layers, const ColumnQ
 struct DenseDdmView {
     const DirectionalDistanceMap* m;
     float distance(int c, int i, int j, int k) const { return m->at(c, i, j, k); }
+    template <class real> void bind(kern::DmMesoMapsT<real>& maps) const { maps.dense = m; }
 };
 /// The compressed map, read through its grid and atlas (Appendix A.2).
 struct CompressedDdmView {
     const CompressedDdm* m;
     float distance(int c, int i, int j, int k) const { return m->lookup(c, i, j, k); }
+    template <class real> void bind(kern::DmMesoMapsT<real>& maps) const { maps.compressed = m; }
 };
 
 /// Relief mapping (Policarpo et al. 2005): `linear` equal steps from the top to the bottom
@@ -172,36 +176,13 @@ template <class real> MesoHit marchHeightSearch(const MesoHeightField& hf, const
     detail::checkRay(o0, d0, "marchHeightSearch");
     if (!(d0.z < 0)) throw ArgumentError("relief mapping / POM: view rays go down (d.z < 0)");
     if (linear < 1) throw ArgumentError("relief mapping / POM: at least one linear step");
-    using V3 = detail::v3<real>;
-    using V4 = detail::v4<real>;
-    using V2 = glm::vec<2, real, glm::defaultp>;
-    const V3 o(o0), d(d0);
+    kern::DmMesoMapsT<real> maps;
+    maps.layers = hf.layers;
+    maps.field = &hf;
     MesoHit r;
-    const auto above = [&](real t) {
-        const V3 p = o + d * t;
-        V2 f;
-        const glm::ivec2 c = kern::dmHeightCell(V2(p.x, p.y), f);
-        ++r.iterations;
-        return kern::dmHeightAbove(p, V4(hf.cell(c.x, c.y)), f);
-    };
-    const real tEnd = kern::dmPlaneHit(o, d, real(0));
-    const real dt = tEnd / static_cast<real>(linear);
-    V2 bracket(0, dt);
-    real abovePrev = binary < 0 ? above(real(0)) : real(0);
-    real aboveCur = 0;
-    for (int i = 0; i < linear; ++i) {
-        aboveCur = above(bracket.y);
-        const real keep = aboveCur;
-        if (kern::dmLinearSearchStep(bracket, dt, aboveCur)) break;
-        abovePrev = keep;
-    }
-    r.hit = true;
-    if (binary < 0) {
-        r.t = static_cast<double>(kern::dmPomIntersect(bracket, abovePrev, aboveCur));
-        return r;
-    }
-    for (int j = 0; j < binary; ++j) bracket = kern::dmBisectStep(bracket, above(real(0.5) * (bracket.x + bracket.y)));
-    r.t = static_cast<double>(real(0.5) * (bracket.x + bracket.y));
+    real t = 0;
+    r.hit = kern::dmMesoMarchHeight(maps, detail::v3<real>(o0), detail::v3<real>(d0), linear, binary, t, r.iterations);
+    r.t = static_cast<double>(t);
     return r;
 }
 
