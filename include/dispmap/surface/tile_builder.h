@@ -377,12 +377,11 @@ class TileBuild {
         cornerRing(t, m, c) = value;
     }
 
-    /// One sweep of the fit: each tile's interior solved exactly with the current rings.
-    /// Returns the largest change.
-    double solveSweep(const std::vector<std::vector<double>>& samples) {
+    /// One sweep of the fit: each tile of `tiles` has its interior solved exactly with the
+    /// current rings (the other tiles stay as they are). Returns the largest change.
+    double solveSweep(const std::vector<std::vector<double>>& samples, const std::vector<int>& tiles) {
         double change = 0.0;
-        const int n = topo_.tileCount();
-        for (int t = 0; t < n; ++t) {
+        for (int t : tiles) {
             const int s = size(t, 0);
             const int w = s + 2;
             std::vector<double> rhs(u(s * s));
@@ -442,12 +441,54 @@ class TileBuild {
 
 } // namespace detail
 
-/// Builds the tiles of `mesh` from `source` with tile sizes `k` (one log2 size per Ptex
-/// face, see uniformTileSizes). Throws ArgumentError for sizes out of range or inconsistent
-/// at a T-junction, or a NaN/Inf sample (naming face and (u, v)); MeshError for topology.
-inline TileSet buildTiles(const ControlMesh& mesh, const std::vector<int>& k, const DisplacementFunction& source,
-                          const BuildOptions& options = {}, BuildReport* report = nullptr) {
-    const std::string& name = mesh.description().name;
+/// The fit of a TileSet, kept for edits (Nießner & Loop 2013, §5: after an edit only the
+/// modified tiles are updated). The constructor builds the tiles as buildTiles does (which is
+/// this class, discarded); refit() re-samples the source on some faces, re-solves their tiles
+/// and their neighbours' with every other tile's interior held fixed, and rewrites in tiles()
+/// only the tiles whose stored coefficients changed: those re-solved and the next ring, whose
+/// overlap rings, corner constraints or mip levels read them. The double-precision state of
+/// the fit is kept, so a tile nothing reaches keeps its coefficients bit for bit. The fit the
+/// whole set would give differs by the coupling cut at the region's border (the figure of
+/// tests/test_tiles.cpp "edits": ~1e-6 of the edit's size).
+class TileFitter {
+  public:
+    /// Throws ArgumentError for sizes out of range or inconsistent at a T-junction, or a
+    /// NaN/Inf sample (naming face and (u, v)); MeshError for topology.
+    TileFitter(const ControlMesh& mesh, const std::vector<int>& k, const DisplacementFunction& source,
+               const BuildOptions& options = {});
+
+    const TileSet& tiles() const { return tiles_; }
+    /// The tiles, moved out (the fitter cannot refit afterwards).
+    TileSet takeTiles() && { return std::move(tiles_); }
+    /// The last fit's report (the constructor's, or the last refit's: sweeps over the edited
+    /// tiles; the residuals are over every tile).
+    const BuildReport& report() const { return report_; }
+
+    /// Re-samples `source` on the given Ptex faces and re-fits the tiles of those whose samples
+    /// changed (the other tiles' interiors fixed). Returns the tiles whose coefficients
+    /// changed, ascending (empty when no sample changed). Throws ArgumentError for a face id
+    /// out of range or a NaN/Inf sample (nothing changes then).
+    std::vector<int> refit(const std::vector<int>& faces, const DisplacementFunction& source);
+
+  private:
+    void sample(int t, const DisplacementFunction& source, std::vector<double>& out) const;
+    void solve(const std::vector<int>& tiles);
+    void store(std::vector<int>* changed);
+
+    std::string name_;
+    std::vector<int> k_, gmin_;
+    BuildOptions options_;
+    std::unique_ptr<TileTopology> topo_;      // heap: TileBuild keeps a reference to it
+    std::unique_ptr<detail::TileBuild> build_;
+    std::vector<std::vector<double>> samples_;
+    TileSet tiles_;
+    BuildReport report_;
+};
+
+inline TileFitter::TileFitter(const ControlMesh& mesh, const std::vector<int>& k, const DisplacementFunction& source,
+                              const BuildOptions& options)
+    : name_(mesh.description().name), k_(k), options_(options) {
+    const std::string& name = name_;
     const int n = mesh.ptexFaceCount();
     if (static_cast<int>(k.size()) != n)
         throw ArgumentError(name + ": " + std::to_string(k.size()) + " tile sizes given for " + std::to_string(n) +
@@ -459,15 +500,17 @@ inline TileSet buildTiles(const ControlMesh& mesh, const std::vector<int>& k, co
                                 std::to_string(kMinTileLog2) + ", " + std::to_string(kMaxTileLog2) + "]");
     if (!source) throw ArgumentError("no displacement source given");
     if (options.maxSweeps < 1 || !(options.tolerance >= 0.0)) throw ArgumentError("invalid build options");
-    const TileTopology topo(mesh);
+    topo_ = std::make_unique<TileTopology>(mesh);
+    const TileTopology& topo = *topo_;
     auto ku = [&](int t) { return k[static_cast<std::size_t>(t)]; };
 
     // Per-vertex smallest global resolution and the per-corner differences (§4.4).
-    std::vector<int> gmin(static_cast<std::size_t>(topo.vertexCount()), 1 << 30);
+    std::vector<int>& gmin = gmin_;
+    gmin.assign(static_cast<std::size_t>(topo.vertexCount()), 1 << 30);
     for (int v = 0; v < topo.vertexCount(); ++v)
         for (auto [t, c] : topo.incidences(v))
             gmin[static_cast<std::size_t>(v)] = std::min(gmin[static_cast<std::size_t>(v)], ku(t) + topo.scale(t));
-    BuildReport rep;
+    BuildReport& rep = report_;
     for (int v = 0; v < topo.vertexCount(); ++v) {
         if (topo.kind(v) == TileTopology::VertexKind::Constrained) ++rep.constrainedVertices;
         if (topo.kind(v) != TileTopology::VertexKind::TJunction) continue;
@@ -495,53 +538,75 @@ inline TileSet buildTiles(const ControlMesh& mesh, const std::vector<int>& k, co
     }
 
     // Samples at the sub-patch centres of each tile's finest level.
-    std::vector<std::vector<double>> samples(static_cast<std::size_t>(n));
+    samples_.resize(static_cast<std::size_t>(n));
+    for (int t = 0; t < n; ++t) sample(t, source, samples_[static_cast<std::size_t>(t)]);
+
+    build_ = std::make_unique<detail::TileBuild>(topo, k);
+    for (int t = 0; t < n; ++t) {
+        const int s = 1 << ku(t);
+        for (int j = 0; j < s; ++j)
+            for (int i = 0; i < s; ++i) build_->fitAt(t, i + 1, j + 1) = samples_[static_cast<std::size_t>(t)][static_cast<std::size_t>(j * s + i)];
+    }
+    std::vector<int> all(static_cast<std::size_t>(n));
+    for (int t = 0; t < n; ++t) all[static_cast<std::size_t>(t)] = t;
+    solve(all);
+    tiles_.filter = options.filter;
+    tiles_.topologyHash = topologyHash(mesh);
+    tiles_.tiles.resize(static_cast<std::size_t>(n));
+    store(nullptr);
+}
+
+inline void TileFitter::sample(int t, const DisplacementFunction& source, std::vector<double>& y) const {
+    const int s = 1 << k_[static_cast<std::size_t>(t)];
+    y.resize(static_cast<std::size_t>(s * s));
+    for (int j = 0; j < s; ++j)
+        for (int i = 0; i < s; ++i) {
+            const double uu = (i + 0.5) / s, vv = (j + 0.5) / s;
+            const double d = source(t, uu, vv);
+            if (!std::isfinite(d))
+                throw ArgumentError(name_ + ": displacement source gave " + std::to_string(d) + " at Ptex face " +
+                                    std::to_string(t) + ", (u, v) = (" + std::to_string(uu) + ", " + std::to_string(vv) + ")");
+            y[static_cast<std::size_t>(j * s + i)] = d;
+        }
+}
+
+inline void TileFitter::solve(const std::vector<int>& tiles) {
     double maxAbs = 0.0;
-    for (int t = 0; t < n; ++t) {
-        const int s = 1 << ku(t);
-        auto& y = samples[static_cast<std::size_t>(t)];
-        y.resize(static_cast<std::size_t>(s * s));
-        for (int j = 0; j < s; ++j)
-            for (int i = 0; i < s; ++i) {
-                const double uu = (i + 0.5) / s, vv = (j + 0.5) / s;
-                const double d = source(t, uu, vv);
-                if (!std::isfinite(d))
-                    throw ArgumentError(name + ": displacement source gave " + std::to_string(d) + " at Ptex face " +
-                                        std::to_string(t) + ", (u, v) = (" + std::to_string(uu) + ", " +
-                                        std::to_string(vv) + ")");
-                y[static_cast<std::size_t>(j * s + i)] = d;
-                maxAbs = std::max(maxAbs, std::abs(d));
-            }
+    for (const std::vector<double>& y : samples_)
+        for (double d : y) maxAbs = std::max(maxAbs, std::abs(d));
+    BuildReport& rep = report_;
+    for (rep.sweeps = 1; rep.sweeps <= options_.maxSweeps; ++rep.sweeps) {
+        build_->finalize(options_.filter);
+        rep.lastChange = build_->solveSweep(samples_, tiles);
+        if (rep.lastChange <= options_.tolerance * (1.0 + maxAbs)) break;
     }
+    rep.sweeps = std::min(rep.sweeps, options_.maxSweeps);
+    build_->finalize(options_.filter);
+}
 
-    detail::TileBuild b(topo, k);
+inline void TileFitter::store(std::vector<int>* changed) {
+    const TileTopology& topo = *topo_;
+    const detail::TileBuild& b = *build_;
+    BuildReport& rep = report_;
+    rep.maxResidual = 0.0;
+    rep.maxResidualAwayFromConstraints = 0.0;
+    const int n = topo.tileCount();
     for (int t = 0; t < n; ++t) {
-        const int s = 1 << ku(t);
-        for (int j = 0; j < s; ++j)
-            for (int i = 0; i < s; ++i) b.fitAt(t, i + 1, j + 1) = samples[static_cast<std::size_t>(t)][static_cast<std::size_t>(j * s + i)];
-    }
-    for (rep.sweeps = 1; rep.sweeps <= options.maxSweeps; ++rep.sweeps) {
-        b.finalize(options.filter);
-        rep.lastChange = b.solveSweep(samples);
-        if (rep.lastChange <= options.tolerance * (1.0 + maxAbs)) break;
-    }
-    rep.sweeps = std::min(rep.sweeps, options.maxSweeps);
-    b.finalize(options.filter);
-
-    TileSet out;
-    out.filter = options.filter;
-    out.topologyHash = topologyHash(mesh);
-    out.tiles.resize(static_cast<std::size_t>(n));
-    for (int t = 0; t < n; ++t) {
-        Tile& tile = out.tiles[static_cast<std::size_t>(t)];
-        tile.k = ku(t);
+        const int kt = k_[static_cast<std::size_t>(t)];
+        Tile tile;
+        tile.k = kt;
         for (int c = 0; c < 4; ++c)
             tile.sizeDifferences[static_cast<std::size_t>(c)] = static_cast<std::uint8_t>(
-                ku(t) + topo.scale(t) - gmin[static_cast<std::size_t>(topo.cornerVertex(t, c))]);
-        for (int m = 0; m < ku(t); ++m)
+                kt + topo.scale(t) - gmin_[static_cast<std::size_t>(topo.cornerVertex(t, c))]);
+        for (int m = 0; m < kt; ++m)
             for (double x : b.level(t)[static_cast<std::size_t>(m)]) tile.coefficients.push_back(static_cast<float>(x));
+        Tile& stored = tiles_.tiles[static_cast<std::size_t>(t)];
+        if (!changed || stored.coefficients != tile.coefficients) {
+            if (changed) changed->push_back(t);
+            stored = std::move(tile);
+        }
         // Interpolation residual at the samples, on the double coefficients.
-        const int s = 1 << ku(t);
+        const int s = 1 << kt;
         for (int j = 0; j < s; ++j)
             for (int i = 0; i < s; ++i) {
                 double d = 0.0;
@@ -549,7 +614,7 @@ inline TileSet buildTiles(const ControlMesh& mesh, const std::vector<int>& k, co
                     for (int a = 0; a < 3; ++a)
                         d += (a == 1 ? 0.75 : 0.125) * (bb == 1 ? 0.75 : 0.125) *
                              b.level(t)[0][static_cast<std::size_t>((j + bb) * (s + 2) + i + a)];
-                const double r = std::abs(d - samples[static_cast<std::size_t>(t)][static_cast<std::size_t>(j * s + i)]);
+                const double r = std::abs(d - samples_[static_cast<std::size_t>(t)][static_cast<std::size_t>(j * s + i)]);
                 rep.maxResidual = std::max(rep.maxResidual, r);
                 bool nearConstraint = false;
                 for (int c = 0; c < 4; ++c) {
@@ -563,8 +628,57 @@ inline TileSet buildTiles(const ControlMesh& mesh, const std::vector<int>& k, co
                 if (!nearConstraint) rep.maxResidualAwayFromConstraints = std::max(rep.maxResidualAwayFromConstraints, r);
             }
     }
-    if (report) *report = rep;
-    return out;
+}
+
+inline std::vector<int> TileFitter::refit(const std::vector<int>& faces, const DisplacementFunction& source) {
+    if (!source) throw ArgumentError("no displacement source given");
+    if (!build_) throw ArgumentError("refit: the tiles were taken out of this fitter");
+    std::vector<int> edited = faces;
+    std::sort(edited.begin(), edited.end());
+    edited.erase(std::unique(edited.begin(), edited.end()), edited.end());
+    const int n = topo_->tileCount();
+    for (int t : edited)
+        if (t < 0 || t >= n)
+            throw ArgumentError(name_ + ": refit: Ptex face " + std::to_string(t) + " out of range [0, " + std::to_string(n) + ")");
+    std::vector<std::vector<double>> fresh(edited.size());
+    for (std::size_t i = 0; i < edited.size(); ++i) sample(edited[i], source, fresh[i]); // may throw: nothing changed yet
+    // Faces whose samples did not change are no edit: their tiles stay as they are.
+    std::vector<int> solveTiles;
+    for (std::size_t i = 0; i < edited.size(); ++i) {
+        std::vector<double>& old = samples_[static_cast<std::size_t>(edited[i])];
+        if (old == fresh[i]) continue;
+        old = std::move(fresh[i]);
+        solveTiles.push_back(edited[i]);
+    }
+    std::vector<int> changed;
+    if (solveTiles.empty()) return changed;
+    // The edited tiles and their neighbours (a shared corner or a linked edge) are re-solved:
+    // a neighbour's samples near the shared edge read the edited tile through its ring. The
+    // interpolation error this leaves at the next ring's samples is the fit's decay across a
+    // whole neighbour tile (about 0.17 per texel, so ~1e-6 of the edit for 8-texel tiles).
+    std::vector<int> region = solveTiles;
+    for (int t : solveTiles) {
+        for (int c = 0; c < 4; ++c) {
+            for (auto [ot, oc] : topo_->incidences(topo_->cornerVertex(t, c))) region.push_back(ot);
+            for (const TileTopology::Link& l : topo_->links(t, c)) region.push_back(l.tile);
+        }
+    }
+    std::sort(region.begin(), region.end());
+    region.erase(std::unique(region.begin(), region.end()), region.end());
+    solve(region);
+    store(&changed);
+    return changed;
+}
+
+/// Builds the tiles of `mesh` from `source` with tile sizes `k` (one log2 size per Ptex
+/// face, see uniformTileSizes). Throws ArgumentError for sizes out of range or inconsistent
+/// at a T-junction, or a NaN/Inf sample (naming face and (u, v)); MeshError for topology.
+/// (TileFitter keeps the fit for edits.)
+inline TileSet buildTiles(const ControlMesh& mesh, const std::vector<int>& k, const DisplacementFunction& source,
+                          const BuildOptions& options = {}, BuildReport* report = nullptr) {
+    TileFitter fitter(mesh, k, source, options);
+    if (report) *report = fitter.report();
+    return std::move(fitter).takeTiles();
 }
 
 } // namespace dispmap
