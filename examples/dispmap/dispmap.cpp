@@ -407,8 +407,9 @@ int main(int argc, char** argv) {
     auto* benchCmd = app.add_subcommand("bench", "mip accuracy table and timings (Google Benchmark flags pass through)");
     std::string csv;
     benchCmd->add_option("--csv", csv, "also write the mip table as CSV");
-    std::string normalsCsv, isolationCsv, swimCsv, tessCsv;
+    std::string normalsCsv, isolationCsv, swimCsv, tessCsv, editCsv;
     benchCmd->add_option("--tessellation-csv", tessCsv, "also write the tessellation-factor table as CSV");
+    benchCmd->add_option("--edit-csv", editCsv, "also write the edit (re-fit) table as CSV");
     benchCmd->add_option("--swim-csv", swimCsv, "also write the swimming figure as CSV");
     benchCmd->add_option("--isolation-csv", isolationCsv, "also write the isolation-level table as CSV");
     benchCmd->add_option("--normals-csv", normalsCsv, "also write the normals table as CSV");
@@ -471,6 +472,8 @@ int main(int argc, char** argv) {
             figures::printSwimFigure(std::cout, swimCsv);
             std::cout << "\n";
             figures::printTessellationTable(std::cout, tessCsv);
+            std::cout << "\n";
+            figures::printEditTable(std::cout, editCsv);
             std::cout << "\n";
             figures::printRenderTable(std::cout, {renderImages, renderCsv, renderFrames, true, ""});
             std::cout << "\n";

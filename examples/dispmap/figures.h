@@ -49,6 +49,9 @@ void printIsolationTable(std::ostream& out, const std::string& csvPath);
 /// Tessellation factor table: triangles, tessellation time and the distance of the mesh to the
 /// displaced surface, for factors 2..64 with and without mips. Also writes `csvPath`.
 void printTessellationTable(std::ostream& out, const std::string& csvPath);
+/// Edit table: TileFitter::refit of one face against a full rebuild (tiles rewritten, time,
+/// distance between the two). Also writes `csvPath` if not empty.
+void printEditTable(std::ostream& out, const std::string& csvPath);
 /// Runs the registered benchmarks with Google Benchmark's flags (e.g. --benchmark_filter=...).
 int runBenchmarks(const std::vector<std::string>& flags);
 } // namespace dispmap::figures
