@@ -17,6 +17,10 @@ packages=(
   libvulkan-dev         # Vulkan headers and loader (the backend loads libvulkan.so.1 at run time)
   mesa-vulkan-drivers   # lavapipe, the default (CPU) Vulkan device of the tests
   vulkan-validationlayers  # VK_LAYER_KHRONOS_validation: the Vulkan tests fail on any message
+  libglfw3-dev          # examples/viewer: the interactive viewer's window, input and Vulkan surface (GLFW 3.3)
+  libx11-dev            # examples/viewer: XGetImage, the viewer's test reads back what the X server shows
+  xvfb                  # examples/viewer tests: a virtual X server (xvfb-run) the viewer presents to headless
+  xauth                 # xvfb-run needs xauth to create the X authority file for its server
 )
 
 missing=()

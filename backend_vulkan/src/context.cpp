@@ -102,6 +102,9 @@ void* openLoader(Functions& fn) {
 #define DISPMAP_VK_LOAD(name) setFunction(fn.name, fn.vkGetInstanceProcAddr(VK_NULL_HANDLE, #name), #name);
         DISPMAP_VK_GLOBAL_FUNCTIONS(DISPMAP_VK_LOAD)
 #undef DISPMAP_VK_LOAD
+#define DISPMAP_VK_LOAD(name) fn.name = reinterpret_cast<PFN_##name>(fn.vkGetInstanceProcAddr(VK_NULL_HANDLE, #name));
+        DISPMAP_VK_OPTIONAL_GLOBAL_FUNCTIONS(DISPMAP_VK_LOAD)
+#undef DISPMAP_VK_LOAD
     } catch (...) {
         dlclose(library);
         throw;
@@ -189,11 +192,34 @@ bool hasLayer(const Functions& fn, const char* layer) {
 
 constexpr const char* kValidationLayer = "VK_LAYER_KHRONOS_validation";
 
+bool hasDeviceExtension(const Functions& fn, VkPhysicalDevice device, const char* extension) {
+    std::uint32_t count = 0;
+    DISPMAP_VK_CHECK(fn, vkEnumerateDeviceExtensionProperties, device, nullptr, &count, nullptr);
+    std::vector<VkExtensionProperties> extensions(count);
+    if (count > 0) DISPMAP_VK_CHECK(fn, vkEnumerateDeviceExtensionProperties, device, nullptr, &count, extensions.data());
+    extensions.resize(count);
+    return std::any_of(extensions.begin(), extensions.end(),
+                       [&](const VkExtensionProperties& e) { return std::strcmp(e.extensionName, extension) == 0; });
+}
+
+std::string versionString(std::uint32_t version) {
+    return std::to_string(VK_API_VERSION_MAJOR(version)) + "." + std::to_string(VK_API_VERSION_MINOR(version));
+}
+
 } // namespace
 
 Context::Context(DeviceOptions options) {
     try {
         create(options);
+    } catch (...) {
+        destroy();
+        throw;
+    }
+}
+
+Context::Context(const ExternalDevice& device) {
+    try {
+        adopt(device);
     } catch (...) {
         destroy();
         throw;
@@ -248,8 +274,13 @@ void Context::create(const DeviceOptions& options) {
     messengerInfo.pUserData = this;
     const char* layers[] = {kValidationLayer};
     const char* extensions[] = {VK_EXT_DEBUG_UTILS_EXTENSION_NAME};
+    // Vulkan 1.3 where the loader has it (dynamic rendering in core), else 1.2. The shaders stay
+    // SPIR-V for Vulkan 1.2 (docs/lavapipe.md).
+    std::uint32_t loaderVersion = VK_API_VERSION_1_0;
+    if (fn_.vkEnumerateInstanceVersion) DISPMAP_VK_CHECK(fn_, vkEnumerateInstanceVersion, &loaderVersion);
+    const std::uint32_t instanceVersion = loaderVersion >= VK_API_VERSION_1_3 ? VK_API_VERSION_1_3 : VK_API_VERSION_1_2;
     VkApplicationInfo app{
-        VK_STRUCTURE_TYPE_APPLICATION_INFO, nullptr, "dispmap", 1, "dispmap", 1, VK_API_VERSION_1_2};
+        VK_STRUCTURE_TYPE_APPLICATION_INFO, nullptr, "dispmap", 1, "dispmap", 1, instanceVersion};
     VkInstanceCreateInfo instanceInfo{};
     instanceInfo.sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO;
     instanceInfo.pApplicationInfo = &app;
@@ -309,6 +340,41 @@ void Context::create(const DeviceOptions& options) {
     // The renderer's wireframe pass writes colour but leaves the normal target alone.
     enabled_.independentBlend = supported.independentBlend;
 
+    // Dynamic rendering (what the renderers draw with): the 1.3 core feature, else the KHR
+    // extension; neither: the Context still computes, the renderers refuse.
+    const std::uint32_t deviceVersion = std::min(instanceVersion, properties_.apiVersion);
+    VkPhysicalDeviceVulkan13Features features13{};
+    features13.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES;
+    VkPhysicalDeviceDynamicRenderingFeaturesKHR renderingKhr{};
+    renderingKhr.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DYNAMIC_RENDERING_FEATURES_KHR;
+    VkPhysicalDeviceFeatures2 query{};
+    query.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2;
+    const char* deviceExtensions[] = {VK_KHR_DYNAMIC_RENDERING_EXTENSION_NAME};
+    void* deviceNext = nullptr;
+    std::uint32_t deviceExtensionCount = 0;
+    if (deviceVersion >= VK_API_VERSION_1_3) {
+        query.pNext = &features13;
+        fn_.vkGetPhysicalDeviceFeatures2(physicalDevice_, &query);
+        if (features13.dynamicRendering) {
+            features13 = {};
+            features13.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES;
+            features13.dynamicRendering = VK_TRUE;
+            deviceNext = &features13;
+            dynamicRendering_ = true;
+        }
+    } else if (hasDeviceExtension(fn_, physicalDevice_, VK_KHR_DYNAMIC_RENDERING_EXTENSION_NAME)) {
+        query.pNext = &renderingKhr;
+        fn_.vkGetPhysicalDeviceFeatures2(physicalDevice_, &query);
+        if (renderingKhr.dynamicRendering) {
+            renderingKhr = {};
+            renderingKhr.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DYNAMIC_RENDERING_FEATURES_KHR;
+            renderingKhr.dynamicRendering = VK_TRUE;
+            deviceNext = &renderingKhr;
+            deviceExtensionCount = 1;
+            dynamicRendering_ = true;
+        }
+    }
+
     // Device, queue, and the objects of one-shot submissions.
     const float priority = 1.0f;
     VkDeviceQueueCreateInfo queueInfo{};
@@ -321,14 +387,73 @@ void Context::create(const DeviceOptions& options) {
     deviceInfo.queueCreateInfoCount = 1;
     deviceInfo.pQueueCreateInfos = &queueInfo;
     deviceInfo.pEnabledFeatures = &enabled_;
+    deviceInfo.pNext = deviceNext;
+    deviceInfo.enabledExtensionCount = deviceExtensionCount;
+    deviceInfo.ppEnabledExtensionNames = deviceExtensionCount ? deviceExtensions : nullptr;
     DISPMAP_VK_CHECK(fn_, vkCreateDevice, physicalDevice_, &deviceInfo, nullptr, &device_);
+    loadDeviceFunctions();
+    fn_.vkGetDeviceQueue(device_, queueFamily_, 0, &queue_);
+    createSubmitObjects();
+}
+
+void Context::adopt(const ExternalDevice& d) {
+    external_ = true;
+    const char* missing = !d.getInstanceProcAddr ? "getInstanceProcAddr"
+                          : !d.instance          ? "instance"
+                          : !d.physicalDevice    ? "physicalDevice"
+                          : !d.device            ? "device"
+                          : !d.queue             ? "queue"
+                                                 : nullptr;
+    if (missing) throw VulkanError(std::string("ExternalDevice::") + missing + " is null");
+    fn_.vkGetInstanceProcAddr = d.getInstanceProcAddr;
+    instance_ = d.instance;
+    loadInstanceFunctions(fn_, instance_, false);
+    physicalDevice_ = d.physicalDevice;
+    fn_.vkGetPhysicalDeviceProperties(physicalDevice_, &properties_);
+    deviceName_ = properties_.deviceName;
+    if (properties_.apiVersion < VK_API_VERSION_1_2)
+        throw VulkanError("Vulkan device '" + deviceName_ + "' supports only Vulkan " + versionString(properties_.apiVersion) +
+                          "; dispmap needs 1.2");
+    std::uint32_t familyCount = 0;
+    fn_.vkGetPhysicalDeviceQueueFamilyProperties(physicalDevice_, &familyCount, nullptr);
+    std::vector<VkQueueFamilyProperties> families(familyCount);
+    fn_.vkGetPhysicalDeviceQueueFamilyProperties(physicalDevice_, &familyCount, families.data());
+    constexpr VkQueueFlags graphicsCompute = VK_QUEUE_GRAPHICS_BIT | VK_QUEUE_COMPUTE_BIT;
+    if (d.queueFamily >= familyCount)
+        throw VulkanError("ExternalDevice::queueFamily " + std::to_string(d.queueFamily) + " out of range: device '" +
+                          deviceName_ + "' has " + std::to_string(familyCount) + " queue families");
+    if ((families[d.queueFamily].queueFlags & graphicsCompute) != graphicsCompute)
+        throw VulkanError("ExternalDevice::queueFamily " + std::to_string(d.queueFamily) + " of device '" + deviceName_ +
+                          "' does not support both graphics and compute");
+    queueFamily_ = d.queueFamily;
+    timestampBits_ = families[d.queueFamily].timestampValidBits;
+    enabled_ = d.enabledFeatures;
+    dynamicRendering_ = d.dynamicRendering;
+    device_ = d.device;
+    queue_ = d.queue;
+    loadDeviceFunctions();
+    createSubmitObjects();
+}
+
+void Context::loadDeviceFunctions() {
 #define DISPMAP_VK_LOAD(name) setFunction(fn_.name, fn_.vkGetDeviceProcAddr(device_, #name), #name);
     DISPMAP_VK_DEVICE_FUNCTIONS(DISPMAP_VK_LOAD)
 #undef DISPMAP_VK_LOAD
-    fn_.vkGetDeviceQueue(device_, queueFamily_, 0, &queue_);
+    if (dynamicRendering_) {
+        // The core name (Vulkan 1.3), else the extension's (VK_KHR_dynamic_rendering).
+#define DISPMAP_VK_LOAD(name)                                                                                \
+    {                                                                                                        \
+        PFN_vkVoidFunction f = fn_.vkGetDeviceProcAddr(device_, #name);                                      \
+        if (!f) f = fn_.vkGetDeviceProcAddr(device_, #name "KHR");                                           \
+        setFunction(fn_.name, f, #name " (dynamic rendering)");                                              \
+    }
+        DISPMAP_VK_RENDERING_FUNCTIONS(DISPMAP_VK_LOAD)
+#undef DISPMAP_VK_LOAD
+    }
+}
 
+void Context::createSubmitObjects() {
     VkCommandPoolCreateInfo poolInfo{};
-
     poolInfo.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
     poolInfo.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
     poolInfo.queueFamilyIndex = queueFamily_;
@@ -361,16 +486,19 @@ void Context::create(const DeviceOptions& options) {
 }
 
 void Context::destroy() noexcept {
+    // A wrapped device: only what the Context made. Its submissions were waited for (submitAndWait,
+    // dispatch), so nothing of it is in use; the device is the caller's to wait for.
+    // (A handle that is set implies the device functions were loaded.)
     if (device_) {
-        fn_.vkDeviceWaitIdle(device_);
+        if (!external_ && fn_.vkDeviceWaitIdle) fn_.vkDeviceWaitIdle(device_);
         if (queryPool_) fn_.vkDestroyQueryPool(device_, queryPool_, nullptr);
         if (descriptorPool_) fn_.vkDestroyDescriptorPool(device_, descriptorPool_, nullptr);
         if (fence_) fn_.vkDestroyFence(device_, fence_, nullptr);
         if (commandPool_) fn_.vkDestroyCommandPool(device_, commandPool_, nullptr);
-        fn_.vkDestroyDevice(device_, nullptr);
+        if (!external_ && fn_.vkDestroyDevice) fn_.vkDestroyDevice(device_, nullptr);
     }
     if (messenger_) fn_.vkDestroyDebugUtilsMessengerEXT(instance_, messenger_, nullptr);
-    if (instance_) fn_.vkDestroyInstance(instance_, nullptr);
+    if (instance_ && !external_) fn_.vkDestroyInstance(instance_, nullptr);
     if (library_) dlclose(library_);
     queryPool_ = VK_NULL_HANDLE;
     descriptorPool_ = VK_NULL_HANDLE;

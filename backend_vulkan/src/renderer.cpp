@@ -1,6 +1,7 @@
-// SurfaceRenderer: upload of the packed surface and topology, the offscreen render pass, the
-// tessellation pipelines of the draw's effects, frames with timestamps and statistics, and
-// the read-back. Plain structs with create/destroy functions, destroyed in reverse order.
+// SurfaceRenderer: upload of the packed surface and topology, the tessellation pipelines of the
+// draw's effects (dynamic rendering, the caller's or the offscreen formats), the per-frame
+// update (vkCmdUpdateBuffer) and draw recorded into any command buffer, and render(): frames
+// into offscreen targets with timestamps, statistics and the read-back (gpu_objects.h).
 #include "dispmap/vulkan/renderer.h"
 
 #include <algorithm>
@@ -16,10 +17,13 @@
 #include "dispmap/surface/packed_surface.h"
 #include "dispmap/surface/tessellator.h"
 #include "dispmap/vulkan/buffer.h"
+#include "gpu_objects.h"
 
 // SPIR-V of shaders/render/*, built by backend_vulkan/CMakeLists.txt.
 #include "render_frag_spv.h"
 #include "render_frag_lean_spv.h"
+#include "render_frag_color_spv.h"
+#include "render_frag_color_lean_spv.h"
 #include "render_tesc_spv.h"
 #include "render_tesc_lean_spv.h"
 #include "render_tese_fe_spv.h"
@@ -29,6 +33,8 @@
 #include "render_vert_spv.h"
 
 namespace dispmap::vulkan {
+
+using namespace detail;
 
 namespace {
 
@@ -65,74 +71,6 @@ enum Binding : std::uint32_t {
     kStorageBindings, // = 16
     kBaselineHeight = kStorageBindings, kBaselineNormal, kBindingCount
 };
-
-const VkFormat kColorFormat = VK_FORMAT_R8G8B8A8_UNORM;
-const VkFormat kNormalFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
-const VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
-
-struct Image {
-    VkImage image = VK_NULL_HANDLE;
-    VkDeviceMemory memory = VK_NULL_HANDLE;
-    VkImageView view = VK_NULL_HANDLE;
-};
-
-Image createImage(Context& ctx, int width, int height, VkFormat format, VkImageUsageFlags usage, VkImageAspectFlags aspect) {
-    const Functions& fn = ctx.fn();
-    Image im;
-    VkImageCreateInfo info{};
-    info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
-    info.imageType = VK_IMAGE_TYPE_2D;
-    info.format = format;
-    info.extent = {static_cast<std::uint32_t>(width), static_cast<std::uint32_t>(height), 1};
-    info.mipLevels = 1;
-    info.arrayLayers = 1;
-    info.samples = VK_SAMPLE_COUNT_1_BIT;
-    info.tiling = VK_IMAGE_TILING_OPTIMAL;
-    info.usage = usage;
-    info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
-    info.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-    DISPMAP_VK_CHECK(fn, vkCreateImage, ctx.device(), &info, nullptr, &im.image);
-    VkMemoryRequirements needs{};
-    fn.vkGetImageMemoryRequirements(ctx.device(), im.image, &needs);
-    VkMemoryAllocateInfo alloc{};
-    alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
-    alloc.allocationSize = needs.size;
-    alloc.memoryTypeIndex = ctx.findMemoryType(needs.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
-    DISPMAP_VK_CHECK(fn, vkAllocateMemory, ctx.device(), &alloc, nullptr, &im.memory);
-    DISPMAP_VK_CHECK(fn, vkBindImageMemory, ctx.device(), im.image, im.memory, 0);
-    VkImageViewCreateInfo view{};
-    view.sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO;
-    view.image = im.image;
-    view.viewType = VK_IMAGE_VIEW_TYPE_2D;
-    view.format = format;
-    view.subresourceRange = {aspect, 0, 1, 0, 1};
-    DISPMAP_VK_CHECK(fn, vkCreateImageView, ctx.device(), &view, nullptr, &im.view);
-    return im;
-}
-
-void destroyImage(Context& ctx, Image& im) {
-    const Functions& fn = ctx.fn();
-    if (im.view) fn.vkDestroyImageView(ctx.device(), im.view, nullptr);
-    if (im.image) fn.vkDestroyImage(ctx.device(), im.image, nullptr);
-    if (im.memory) fn.vkFreeMemory(ctx.device(), im.memory, nullptr);
-    im = {};
-}
-
-void imageBarrier(const Functions& fn, VkCommandBuffer cmd, VkImage image, VkImageLayout from, VkImageLayout to,
-                  VkAccessFlags srcAccess, VkAccessFlags dstAccess, VkPipelineStageFlags srcStage,
-                  VkPipelineStageFlags dstStage) {
-    VkImageMemoryBarrier b{};
-    b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER;
-    b.srcAccessMask = srcAccess;
-    b.dstAccessMask = dstAccess;
-    b.oldLayout = from;
-    b.newLayout = to;
-    b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    b.image = image;
-    b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
-    fn.vkCmdPipelineBarrier(cmd, srcStage, dstStage, 0, 0, nullptr, 0, nullptr, 1, &b);
-}
 
 template <class T> std::size_t bytesOf(const std::vector<T>& v) { return v.size() * sizeof(T); }
 
@@ -226,11 +164,21 @@ int methodIndex(TessMethod m) {
     return 0;
 }
 
-double median(std::vector<double> v) {
-    if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
-    std::sort(v.begin(), v.end());
-    const std::size_t n = v.size();
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+// Offscreen targets of render() (the formats of its RenderedImage).
+const VkFormat kColorFormat = VK_FORMAT_R8G8B8A8_UNORM;
+const VkFormat kNormalFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
+const VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
+
+constexpr VkPipelineStageFlags kShaderStages =
+    VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_TESSELLATION_CONTROL_SHADER_BIT |
+    VK_PIPELINE_STAGE_TESSELLATION_EVALUATION_SHADER_BIT | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT;
+
+template <std::size_t N> std::span<const std::uint32_t> spirv(const std::uint32_t (&code)[N]) { return code; }
+
+template <class T> std::vector<std::uint8_t> rawBytes(const std::vector<T>& v) {
+    std::vector<std::uint8_t> bytes(bytesOf(v));
+    if (!v.empty()) std::memcpy(bytes.data(), v.data(), bytes.size());
+    return bytes;
 }
 
 } // namespace
@@ -247,53 +195,50 @@ struct SurfaceRenderer::Impl {
     const DisplacedSurface& surface;
     SurfaceDraw draw;
     RendererOptions options;
+    TargetFormats formats; // the attachments the pipelines draw into
     int width = 0, height = 0;
     std::uint32_t drawCount = 0;
     std::size_t uploaded = 0;
+    int packedWidth = 0, atlasW = 1, atlasH = 1, atlasN = 1;
 
-    std::vector<Buffer> buffers; // by binding, kParams .. kCapture
-    Image color, normal, depth, baseHeight, baseNormal;
+    std::vector<Buffer> buffers;             // by binding, kParams .. kCapture
+    std::vector<GpuBaseVertex> baseVertices; // what kBaseVertices holds (positions move with the cage)
+    struct Pending {
+        Binding binding;
+        std::vector<std::uint8_t> bytes;
+        VkDeviceSize offset = 0;
+    };
+    std::vector<Pending> pending; // geometry and tiles for the next recordUpdate
+    PackedTiles packed;           // what kTexels holds (edited tiles are written into it)
+    Image baseHeight, baseNormal;
     VkSampler sampler = VK_NULL_HANDLE;
-    VkRenderPass renderPass = VK_NULL_HANDLE;
-    VkFramebuffer framebuffer = VK_NULL_HANDLE;
-    VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
-    VkPipelineLayout layout = VK_NULL_HANDLE;
-    VkDescriptorPool pool = VK_NULL_HANDLE;
-    VkDescriptorSet set = VK_NULL_HANDLE;
-    VkPipeline fill = VK_NULL_HANDLE, wire = VK_NULL_HANDLE;
-    VkQueryPool timestamps = VK_NULL_HANDLE, statistics = VK_NULL_HANDLE;
-    std::unique_ptr<Buffer> readColor, readNormal, readDepth;
+    std::unique_ptr<DescriptorSet> descriptors;
+    std::unique_ptr<GraphicsPipeline> fill, wire;
+    std::unique_ptr<Timestamps> timestamps;
+    VkQueryPool statistics = VK_NULL_HANDLE;
+    std::unique_ptr<OffscreenTargets> targets; // render() only, at the current size
 
     Impl(Context& c, const SurfaceDraw& s, const DisplacedSurface& surf, RendererOptions o)
-        : ctx(c), surface(surf), draw(s), options(o), width(s.width), height(s.height) {}
+        : ctx(c), surface(surf), draw(s), options(o), width(s.width), height(s.height) {
+        formats = o.target ? *o.target : TargetFormats{kColorFormat, kNormalFormat, kDepthFormat};
+    }
     ~Impl() { destroy(); }
 
     void destroy() noexcept {
         const Functions& fn = ctx.fn();
         const VkDevice d = ctx.device();
-        fn.vkDeviceWaitIdle(d);
-        if (timestamps) fn.vkDestroyQueryPool(d, timestamps, nullptr);
+        fn.vkDeviceWaitIdle(d); // frames the caller recorded may still run
+        targets.reset();
+        timestamps.reset();
         if (statistics) fn.vkDestroyQueryPool(d, statistics, nullptr);
-        if (wire) fn.vkDestroyPipeline(d, wire, nullptr);
-        if (fill) fn.vkDestroyPipeline(d, fill, nullptr);
-        if (pool) fn.vkDestroyDescriptorPool(d, pool, nullptr);
-        if (layout) fn.vkDestroyPipelineLayout(d, layout, nullptr);
-        if (setLayout) fn.vkDestroyDescriptorSetLayout(d, setLayout, nullptr);
-        if (framebuffer) fn.vkDestroyFramebuffer(d, framebuffer, nullptr);
-        if (renderPass) fn.vkDestroyRenderPass(d, renderPass, nullptr);
+        statistics = VK_NULL_HANDLE;
+        wire.reset();
+        fill.reset();
+        descriptors.reset();
         if (sampler) fn.vkDestroySampler(d, sampler, nullptr);
-        for (Image* im : {&baseNormal, &baseHeight, &depth, &normal, &color}) destroyImage(ctx, *im);
-        timestamps = statistics = VK_NULL_HANDLE;
-        wire = fill = VK_NULL_HANDLE;
-        pool = VK_NULL_HANDLE;
-        layout = VK_NULL_HANDLE;
-        setLayout = VK_NULL_HANDLE;
-        framebuffer = VK_NULL_HANDLE;
-        renderPass = VK_NULL_HANDLE;
         sampler = VK_NULL_HANDLE;
-        readColor.reset();
-        readNormal.reset();
-        readDepth.reset();
+        baseNormal = Image();
+        baseHeight = Image();
         buffers.clear();
     }
 
@@ -306,7 +251,7 @@ struct SurfaceRenderer::Impl {
         uploaded += bytesOf(data);
     }
 
-    void writeParams() {
+    GpuParams params() const {
         GpuParams p{};
         p.viewProj = glm::mat4(vulkan::viewProjection(draw.camera, width, height));
         p.eye = glm::vec4(glm::vec3(draw.camera.eye), 1.0f);
@@ -322,15 +267,17 @@ struct SurfaceRenderer::Impl {
             p.lights[i].direction = glm::vec4(glm::vec3(glm::normalize(draw.lights[i].direction)), 0.0f);
             p.lights[i].color = glm::vec4(glm::vec3(draw.lights[i].color), 0.0f);
         }
-        buffer(kParams).upload(&p, sizeof p);
+        return p;
     }
-
-    int packedWidth = 0, atlasW = 1, atlasH = 1, atlasN = 1;
 
     void uploadSurface(const BaselineAtlas* atlas) {
         buffers.clear();
         for (std::uint32_t i = 0; i < kStorageBindings; ++i) buffers.emplace_back(ctx, 16);
-        upload(kParams, std::vector<GpuParams>(1));
+        if (atlas) {
+            atlasW = atlas->width;
+            atlasH = atlas->height;
+            atlasN = atlas->texelsPerFace;
+        }
         const PackedSurface ps(surface.base());
         upload(kPoints, ps.points);
         upload(kPatchIndices, ps.patchIndices);
@@ -339,7 +286,7 @@ struct SurfaceRenderer::Impl {
         upload(kFaceRoots, ps.faceRoots);
         upload(kCornerNormals, ps.cornerNormals);
         if (draw.effects.technique == Technique::Displaced) {
-            const PackedTiles packed = surface.tiles().pack();
+            packed = surface.tiles().pack();
             packedWidth = packed.width;
             std::vector<glm::uvec4> records;
             for (const PatchRecord& r : packed.records) records.push_back(recordWords(r));
@@ -354,47 +301,46 @@ struct SurfaceRenderer::Impl {
         upload(kTileVertices, topo.tileVertices);
         upload(kSpreadIndices, topo.spread);
         upload(kDrawFaces, topo.drawFaces);
+        baseVertices = std::move(topo.baseVertices);
         buffers[kCapture] = Buffer(ctx, kCaptureHeader + std::max<std::size_t>(options.captureCapacity, 1) * sizeof(GpuCaptured));
-        if (atlas) {
-            atlasW = atlas->width;
-            atlasH = atlas->height;
-            atlasN = atlas->texelsPerFace;
-        }
-        writeParams();
+        const GpuParams p = params(); // recordUpdate writes it again every frame
+        upload(kParams, std::vector<GpuParams>{p});
     }
 
     // The baseline's height and normal maps (1 x 1 placeholders for the other techniques:
     // the descriptors must be valid either way).
     void uploadMaps(const BaselineAtlas* atlas) {
         const Functions& fn = ctx.fn();
-        VkFormatProperties props{};
-        fn.vkGetPhysicalDeviceFormatProperties(ctx.physicalDevice(), VK_FORMAT_R32_SFLOAT, &props);
-        if (!(props.optimalTilingFeatures & VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT))
-            throw VulkanError("Vulkan device '" + ctx.deviceName() + "' cannot filter R32_SFLOAT textures linearly (baseline height map)");
+        requireFormat(ctx, VK_FORMAT_R32_SFLOAT, VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT,
+                      "a linearly filtered texture (baseline height map)");
         const int w = atlas ? atlas->width : 1, h = atlas ? atlas->height : 1;
         std::vector<float> heights = atlas ? atlas->heights : std::vector<float>{0.0f};
         std::vector<std::uint8_t> normals = atlas ? atlas->normals : std::vector<std::uint8_t>{128, 128, 255, 255};
         const VkImageUsageFlags usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
-        baseHeight = createImage(ctx, w, h, VK_FORMAT_R32_SFLOAT, usage, VK_IMAGE_ASPECT_COLOR_BIT);
-        baseNormal = createImage(ctx, w, h, VK_FORMAT_R8G8B8A8_UNORM, usage, VK_IMAGE_ASPECT_COLOR_BIT);
+        const auto uw = static_cast<std::uint32_t>(w), uh = static_cast<std::uint32_t>(h);
+        baseHeight = Image(ctx, uw, uh, VK_FORMAT_R32_SFLOAT, usage);
+        baseNormal = Image(ctx, uw, uh, VK_FORMAT_R8G8B8A8_UNORM, usage);
         Buffer staging(ctx, bytesOf(heights) + bytesOf(normals));
         staging.upload(heights.data(), bytesOf(heights));
         staging.upload(normals.data(), bytesOf(normals), bytesOf(heights));
         if (atlas) uploaded += bytesOf(heights) + bytesOf(normals);
         ctx.submitAndWait([&](VkCommandBuffer cmd) {
             VkDeviceSize offset = 0;
-            for (VkImage image : {baseHeight.image, baseNormal.image}) {
-                imageBarrier(fn, cmd, image, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0,
-                             VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT);
+            for (const Image* image : {&baseHeight, &baseNormal}) {
+                imageBarrier(fn, cmd, image->image(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                             VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, 0,
+                             VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT);
                 VkBufferImageCopy region{};
                 region.bufferOffset = offset;
                 region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-                region.imageExtent = {static_cast<std::uint32_t>(w), static_cast<std::uint32_t>(h), 1};
-                fn.vkCmdCopyBufferToImage(cmd, staging.handle(), image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
-                imageBarrier(fn, cmd, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
-                             VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                region.imageExtent = {uw, uh, 1};
+                fn.vkCmdCopyBufferToImage(cmd, staging.handle(), image->image(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+                imageBarrier(fn, cmd, image->image(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                             VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                             VK_ACCESS_TRANSFER_WRITE_BIT,
                              VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT |
-                                 VK_PIPELINE_STAGE_TESSELLATION_EVALUATION_SHADER_BIT);
+                                 VK_PIPELINE_STAGE_TESSELLATION_EVALUATION_SHADER_BIT,
+                             VK_ACCESS_SHADER_READ_BIT);
                 offset += bytesOf(heights);
             }
         });
@@ -408,244 +354,57 @@ struct SurfaceRenderer::Impl {
         DISPMAP_VK_CHECK(fn, vkCreateSampler, ctx.device(), &s, nullptr, &sampler);
     }
 
-    void createTargets() {
-        const Functions& fn = ctx.fn();
-        const VkImageUsageFlags target = VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
-        color = createImage(ctx, width, height, kColorFormat, target | VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT, VK_IMAGE_ASPECT_COLOR_BIT);
-        normal = createImage(ctx, width, height, kNormalFormat, target | VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT, VK_IMAGE_ASPECT_COLOR_BIT);
-        depth = createImage(ctx, width, height, kDepthFormat, target | VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
-                            VK_IMAGE_ASPECT_DEPTH_BIT);
-        std::array<VkAttachmentDescription, 3> att{};
-        const VkFormat formats[3] = {kColorFormat, kNormalFormat, kDepthFormat};
-        for (int i = 0; i < 3; ++i) {
-            att[static_cast<std::size_t>(i)].format = formats[i];
-            att[static_cast<std::size_t>(i)].samples = VK_SAMPLE_COUNT_1_BIT;
-            att[static_cast<std::size_t>(i)].loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-            att[static_cast<std::size_t>(i)].storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-            att[static_cast<std::size_t>(i)].stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
-            att[static_cast<std::size_t>(i)].stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-            att[static_cast<std::size_t>(i)].initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-            att[static_cast<std::size_t>(i)].finalLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-        }
-        const VkAttachmentReference colorRefs[2] = {{0, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL},
-                                                    {1, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL}};
-        const VkAttachmentReference depthRef{2, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL};
-        VkSubpassDescription sub{};
-        sub.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
-        sub.colorAttachmentCount = 2;
-        sub.pColorAttachments = colorRefs;
-        sub.pDepthStencilAttachment = &depthRef;
-        // The copies after the pass wait for its attachment writes.
-        VkSubpassDependency dep{};
-        dep.srcSubpass = 0;
-        dep.dstSubpass = VK_SUBPASS_EXTERNAL;
-        dep.srcStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_LATE_FRAGMENT_TESTS_BIT;
-        dep.dstStageMask = VK_PIPELINE_STAGE_TRANSFER_BIT;
-        dep.srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
-        dep.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
-        VkRenderPassCreateInfo rp{};
-        rp.sType = VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO;
-        rp.attachmentCount = 3;
-        rp.pAttachments = att.data();
-        rp.subpassCount = 1;
-        rp.pSubpasses = &sub;
-        rp.dependencyCount = 1;
-        rp.pDependencies = &dep;
-        DISPMAP_VK_CHECK(fn, vkCreateRenderPass, ctx.device(), &rp, nullptr, &renderPass);
-        const VkImageView views[3] = {color.view, normal.view, depth.view};
-        VkFramebufferCreateInfo fb{};
-        fb.sType = VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO;
-        fb.renderPass = renderPass;
-        fb.attachmentCount = 3;
-        fb.pAttachments = views;
-        fb.width = static_cast<std::uint32_t>(width);
-        fb.height = static_cast<std::uint32_t>(height);
-        fb.layers = 1;
-        DISPMAP_VK_CHECK(fn, vkCreateFramebuffer, ctx.device(), &fb, nullptr, &framebuffer);
-        const std::size_t pixels = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
-        readColor = std::make_unique<Buffer>(ctx, pixels * 4);
-        readNormal = std::make_unique<Buffer>(ctx, pixels * 16);
-        readDepth = std::make_unique<Buffer>(ctx, pixels * 4);
-    }
-
     void createDescriptors() {
-        const Functions& fn = ctx.fn();
-        std::array<VkDescriptorSetLayoutBinding, kBindingCount> b{};
-        for (std::uint32_t i = 0; i < kBindingCount; ++i)
-            b[i] = {i, i < kStorageBindings ? VK_DESCRIPTOR_TYPE_STORAGE_BUFFER : VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1,
-                    VK_SHADER_STAGE_ALL_GRAPHICS, nullptr};
-        VkDescriptorSetLayoutCreateInfo li{};
-        li.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
-        li.bindingCount = kBindingCount;
-        li.pBindings = b.data();
-        DISPMAP_VK_CHECK(fn, vkCreateDescriptorSetLayout, ctx.device(), &li, nullptr, &setLayout);
-        VkPipelineLayoutCreateInfo pl{};
-        pl.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
-        pl.setLayoutCount = 1;
-        pl.pSetLayouts = &setLayout;
-        DISPMAP_VK_CHECK(fn, vkCreatePipelineLayout, ctx.device(), &pl, nullptr, &layout);
-        const VkDescriptorPoolSize sizes[2] = {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, kStorageBindings},
-                                               {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2}};
-        VkDescriptorPoolCreateInfo pi{};
-        pi.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
-        pi.maxSets = 1;
-        pi.poolSizeCount = 2;
-        pi.pPoolSizes = sizes;
-        DISPMAP_VK_CHECK(fn, vkCreateDescriptorPool, ctx.device(), &pi, nullptr, &pool);
-        VkDescriptorSetAllocateInfo ai{};
-        ai.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
-        ai.descriptorPool = pool;
-        ai.descriptorSetCount = 1;
-        ai.pSetLayouts = &setLayout;
-        DISPMAP_VK_CHECK(fn, vkAllocateDescriptorSets, ctx.device(), &ai, &set);
-        std::array<VkDescriptorBufferInfo, kStorageBindings> infos{};
-        std::array<VkDescriptorImageInfo, 2> images{};
-        std::array<VkWriteDescriptorSet, kBindingCount> writes{};
-        for (std::uint32_t i = 0; i < kBindingCount; ++i) {
-            writes[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
-            writes[i].dstSet = set;
-            writes[i].dstBinding = i;
-            writes[i].descriptorCount = 1;
-            if (i < kStorageBindings) {
-                infos[i] = {buffers[i].handle(), 0, VK_WHOLE_SIZE};
-                writes[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-                writes[i].pBufferInfo = &infos[i];
-            } else {
-                images[i - kStorageBindings] = {sampler, i == kBaselineHeight ? baseHeight.view : baseNormal.view,
-                                                VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-                writes[i].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
-                writes[i].pImageInfo = &images[i - kStorageBindings];
-            }
-        }
-        fn.vkUpdateDescriptorSets(ctx.device(), kBindingCount, writes.data(), 0, nullptr);
+        std::array<VkBuffer, kStorageBindings> storage{};
+        for (std::uint32_t i = 0; i < kStorageBindings; ++i) storage[i] = buffers[i].handle();
+        const SampledImage maps[2] = {{sampler, baseHeight.view()}, {sampler, baseNormal.view()}};
+        descriptors = std::make_unique<DescriptorSet>(ctx, storage, maps, VK_SHADER_STAGE_ALL_GRAPHICS);
     }
 
-    VkPipeline createPipeline(bool wireframe) {
-        const Functions& fn = ctx.fn();
+    std::unique_ptr<GraphicsPipeline> createPipeline(bool wireframe) {
         const SurfaceEffects& e = draw.effects;
         const bool displaced = e.technique == Technique::Displaced;
-        const std::uint32_t spec[6] = {
-            static_cast<std::uint32_t>(techniqueIndex(e.technique)),
-            static_cast<std::uint32_t>(displaced ? normalsIndex(e.normals) : 0),
-            static_cast<std::uint32_t>(displaced ? lodIndex(e.lod) : 0),
-            static_cast<std::uint32_t>(methodIndex(e.tessMethod)),
-            options.captureCapacity > 0 ? 1u : 0u,
-            wireframe ? 1u : 0u};
-        std::array<VkSpecializationMapEntry, 6> entries{};
-        for (std::uint32_t i = 0; i < 6; ++i) entries[i] = {i, i * 4, 4};
-        VkSpecializationInfo si{6, entries.data(), sizeof spec, spec};
-
         const bool integer = e.spacing == Spacing::Integer;
         const bool lean = options.lean;
-        struct Stage {
-            VkShaderStageFlagBits stage;
-            const std::uint32_t* code;
-            std::size_t bytes;
-        };
-#define DISPMAP_STAGE(bit, name) Stage{bit, name, sizeof(name)}
-        const Stage stages[4] = {
-            DISPMAP_STAGE(VK_SHADER_STAGE_VERTEX_BIT, render_vert_spv),
-            lean ? DISPMAP_STAGE(VK_SHADER_STAGE_TESSELLATION_CONTROL_BIT, render_tesc_lean_spv)
-                 : DISPMAP_STAGE(VK_SHADER_STAGE_TESSELLATION_CONTROL_BIT, render_tesc_spv),
-            integer ? (lean ? DISPMAP_STAGE(VK_SHADER_STAGE_TESSELLATION_EVALUATION_BIT, render_tese_int_lean_spv)
-                            : DISPMAP_STAGE(VK_SHADER_STAGE_TESSELLATION_EVALUATION_BIT, render_tese_int_spv))
-                    : (lean ? DISPMAP_STAGE(VK_SHADER_STAGE_TESSELLATION_EVALUATION_BIT, render_tese_fe_lean_spv)
-                            : DISPMAP_STAGE(VK_SHADER_STAGE_TESSELLATION_EVALUATION_BIT, render_tese_fe_spv)),
-            lean ? DISPMAP_STAGE(VK_SHADER_STAGE_FRAGMENT_BIT, render_frag_lean_spv)
-                 : DISPMAP_STAGE(VK_SHADER_STAGE_FRAGMENT_BIT, render_frag_spv)};
-#undef DISPMAP_STAGE
-        std::array<VkShaderModule, 4> modules{};
-        std::array<VkPipelineShaderStageCreateInfo, 4> infos{};
-        VkPipeline pipeline = VK_NULL_HANDLE;
-        try {
-            for (std::size_t i = 0; i < 4; ++i) {
-                VkShaderModuleCreateInfo mi{};
-                mi.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
-                mi.codeSize = stages[i].bytes;
-                mi.pCode = stages[i].code;
-                DISPMAP_VK_CHECK(fn, vkCreateShaderModule, ctx.device(), &mi, nullptr, &modules[i]);
-                infos[i].sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
-                infos[i].stage = stages[i].stage;
-                infos[i].module = modules[i];
-                infos[i].pName = "main";
-                infos[i].pSpecializationInfo = &si;
-            }
-            VkPipelineVertexInputStateCreateInfo vi{};
-            vi.sType = VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO;
-            VkPipelineInputAssemblyStateCreateInfo ia{};
-            ia.sType = VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO;
-            ia.topology = VK_PRIMITIVE_TOPOLOGY_PATCH_LIST;
-            VkPipelineTessellationStateCreateInfo ts{};
-            ts.sType = VK_STRUCTURE_TYPE_PIPELINE_TESSELLATION_STATE_CREATE_INFO;
-            ts.patchControlPoints = 1;
-            VkPipelineViewportStateCreateInfo vp{};
-            vp.sType = VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO;
-            vp.viewportCount = 1;
-            vp.scissorCount = 1;
-            VkPipelineRasterizationStateCreateInfo rs{};
-            rs.sType = VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO;
-            rs.polygonMode = wireframe ? VK_POLYGON_MODE_LINE : VK_POLYGON_MODE_FILL;
-            rs.cullMode = VK_CULL_MODE_NONE; // open meshes and holes show their inside
-            rs.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
-            rs.lineWidth = 1.0f;
-            rs.depthBiasEnable = wireframe ? VK_TRUE : VK_FALSE;
-            rs.depthBiasConstantFactor = -2.0f;
-            rs.depthBiasSlopeFactor = -1.0f;
-            VkPipelineMultisampleStateCreateInfo ms{};
-            ms.sType = VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO;
-            ms.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
-            VkPipelineDepthStencilStateCreateInfo ds{};
-            ds.sType = VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO;
-            ds.depthTestEnable = VK_TRUE;
-            ds.depthWriteEnable = wireframe ? VK_FALSE : VK_TRUE;
-            ds.depthCompareOp = wireframe ? VK_COMPARE_OP_LESS_OR_EQUAL : VK_COMPARE_OP_LESS;
-            std::array<VkPipelineColorBlendAttachmentState, 2> blend{};
-            blend[0].colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT |
-                                      VK_COLOR_COMPONENT_A_BIT;
-            blend[1].colorWriteMask = wireframe ? 0 : blend[0].colorWriteMask; // lines leave the normals alone
-            VkPipelineColorBlendStateCreateInfo cb{};
-            cb.sType = VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO;
-            cb.attachmentCount = 2;
-            cb.pAttachments = blend.data();
-            const VkDynamicState dyn[2] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
-            VkPipelineDynamicStateCreateInfo dy{};
-            dy.sType = VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO;
-            dy.dynamicStateCount = 2;
-            dy.pDynamicStates = dyn;
-            VkGraphicsPipelineCreateInfo gi{};
-            gi.sType = VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO;
-            gi.stageCount = 4;
-            gi.pStages = infos.data();
-            gi.pVertexInputState = &vi;
-            gi.pInputAssemblyState = &ia;
-            gi.pTessellationState = &ts;
-            gi.pViewportState = &vp;
-            gi.pRasterizationState = &rs;
-            gi.pMultisampleState = &ms;
-            gi.pDepthStencilState = &ds;
-            gi.pColorBlendState = &cb;
-            gi.pDynamicState = &dy;
-            gi.layout = layout;
-            gi.renderPass = renderPass;
-            DISPMAP_VK_CHECK(fn, vkCreateGraphicsPipelines, ctx.device(), VK_NULL_HANDLE, 1, &gi, nullptr, &pipeline);
-        } catch (...) {
-            for (VkShaderModule m : modules)
-                if (m) fn.vkDestroyShaderModule(ctx.device(), m, nullptr);
-            throw;
+        const bool normalTarget = formats.normal != VK_FORMAT_UNDEFINED;
+        GraphicsPipelineDesc d;
+        d.specConstants = {static_cast<std::uint32_t>(techniqueIndex(e.technique)),
+                           static_cast<std::uint32_t>(displaced ? normalsIndex(e.normals) : 0),
+                           static_cast<std::uint32_t>(displaced ? lodIndex(e.lod) : 0),
+                           static_cast<std::uint32_t>(methodIndex(e.tessMethod)),
+                           options.captureCapacity > 0 ? 1u : 0u,
+                           wireframe ? 1u : 0u};
+        const std::span<const std::uint32_t> frag =
+            normalTarget ? (lean ? spirv(render_frag_lean_spv) : spirv(render_frag_spv))
+                         : (lean ? spirv(render_frag_color_lean_spv) : spirv(render_frag_color_spv));
+        d.stages = {{VK_SHADER_STAGE_VERTEX_BIT, spirv(render_vert_spv)},
+                    {VK_SHADER_STAGE_TESSELLATION_CONTROL_BIT, lean ? spirv(render_tesc_lean_spv) : spirv(render_tesc_spv)},
+                    {VK_SHADER_STAGE_TESSELLATION_EVALUATION_BIT,
+                     integer ? (lean ? spirv(render_tese_int_lean_spv) : spirv(render_tese_int_spv))
+                             : (lean ? spirv(render_tese_fe_lean_spv) : spirv(render_tese_fe_spv))},
+                    {VK_SHADER_STAGE_FRAGMENT_BIT, frag}};
+        d.patchControlPoints = 1;
+        d.polygonMode = wireframe ? VK_POLYGON_MODE_LINE : VK_POLYGON_MODE_FILL;
+        d.depthBias = wireframe;
+        d.depthBiasConstant = -2.0f;
+        d.depthBiasSlope = -1.0f;
+        d.depthWrite = !wireframe;
+        d.depthCompare = wireframe ? VK_COMPARE_OP_LESS_OR_EQUAL : VK_COMPARE_OP_LESS;
+        const VkColorComponentFlags rgba =
+            VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
+        d.colorFormats = {formats.color};
+        d.colorWriteMasks = {rgba};
+        if (normalTarget) {
+            d.colorFormats.push_back(formats.normal);
+            d.colorWriteMasks.push_back(wireframe ? 0 : rgba); // lines leave the normals alone
         }
-        for (VkShaderModule m : modules) fn.vkDestroyShaderModule(ctx.device(), m, nullptr);
-        return pipeline;
+        d.depthFormat = formats.depth;
+        d.layout = descriptors->pipelineLayout();
+        return std::make_unique<GraphicsPipeline>(ctx, d);
     }
 
     void createQueries() {
-        const Functions& fn = ctx.fn();
-        if (ctx.timestampsSupported()) {
-            VkQueryPoolCreateInfo qi{};
-            qi.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO;
-            qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
-            qi.queryCount = 2;
-            DISPMAP_VK_CHECK(fn, vkCreateQueryPool, ctx.device(), &qi, nullptr, &timestamps);
-        }
+        timestamps = std::make_unique<Timestamps>(ctx);
         if (ctx.enabledFeatures().pipelineStatisticsQuery) {
             VkQueryPoolCreateInfo qi{};
             qi.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO;
@@ -654,74 +413,139 @@ struct SurfaceRenderer::Impl {
             qi.pipelineStatistics = VK_QUERY_PIPELINE_STATISTIC_CLIPPING_INVOCATIONS_BIT |
                                     VK_QUERY_PIPELINE_STATISTIC_TESSELLATION_CONTROL_SHADER_PATCHES_BIT |
                                     VK_QUERY_PIPELINE_STATISTIC_TESSELLATION_EVALUATION_SHADER_INVOCATIONS_BIT;
-            DISPMAP_VK_CHECK(fn, vkCreateQueryPool, ctx.device(), &qi, nullptr, &statistics);
+            DISPMAP_VK_CHECK(ctx.fn(), vkCreateQueryPool, ctx.device(), &qi, nullptr, &statistics);
         }
     }
 
-    void record(VkCommandBuffer cmd, bool readBack) {
+    void recordUpdate(VkCommandBuffer cmd) {
         const Functions& fn = ctx.fn();
-        if (timestamps) fn.vkCmdResetQueryPool(cmd, timestamps, 0, 2);
-        if (statistics) fn.vkCmdResetQueryPool(cmd, statistics, 0, 1);
-        if (timestamps) fn.vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, timestamps, 0);
-        if (statistics) fn.vkCmdBeginQuery(cmd, statistics, 0, 0);
-        std::array<VkClearValue, 3> clear{};
-        clear[0].color = {{float(draw.background.x), float(draw.background.y), float(draw.background.z), 1.0f}};
-        clear[1].color = {{0.0f, 0.0f, 0.0f, 0.0f}};
-        clear[2].depthStencil = {1.0f, 0};
-        VkRenderPassBeginInfo rb{};
-        rb.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO;
-        rb.renderPass = renderPass;
-        rb.framebuffer = framebuffer;
-        rb.renderArea = {{0, 0}, {static_cast<std::uint32_t>(width), static_cast<std::uint32_t>(height)}};
-        rb.clearValueCount = 3;
-        rb.pClearValues = clear.data();
-        fn.vkCmdBeginRenderPass(cmd, &rb, VK_SUBPASS_CONTENTS_INLINE);
+        // Earlier frames' shaders read (and earlier updates wrote) these buffers.
+        memoryBarrier(fn, cmd, kShaderStages | VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                      VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT);
+        const GpuParams p = params();
+        updateBuffer(fn, cmd, buffer(kParams).handle(), &p, sizeof p);
+        for (const Pending& q : pending)
+            updateBuffer(fn, cmd, buffer(q.binding).handle(), q.bytes.data(), q.bytes.size(), q.offset);
+        pending.clear();
+        memoryBarrier(fn, cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, kShaderStages,
+                      VK_ACCESS_SHADER_READ_BIT);
+    }
+
+    void recordDraw(VkCommandBuffer cmd) const {
+        const Functions& fn = ctx.fn();
         const VkViewport viewport{0.0f, 0.0f, float(width), float(height), 0.0f, 1.0f};
         const VkRect2D scissor{{0, 0}, {static_cast<std::uint32_t>(width), static_cast<std::uint32_t>(height)}};
         fn.vkCmdSetViewport(cmd, 0, 1, &viewport);
         fn.vkCmdSetScissor(cmd, 0, 1, &scissor);
-        fn.vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout, 0, 1, &set, 0, nullptr);
+        descriptors->bind(cmd);
         const auto batch = static_cast<std::uint32_t>(options.facesPerDraw);
-        for (VkPipeline p : {fill, wire}) {
+        for (const GraphicsPipeline* p : {fill.get(), wire.get()}) {
             if (!p) continue;
-            fn.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p);
+            fn.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p->handle());
             for (std::uint32_t first = 0; first < drawCount; first += batch)
                 fn.vkCmdDraw(cmd, std::min(batch, drawCount - first), 1, first, 0);
         }
-        fn.vkCmdEndRenderPass(cmd);
+    }
+
+    /// One frame of render(): the engine path into the renderer's own targets.
+    void recordFrame(VkCommandBuffer cmd, bool readBack) {
+        const Functions& fn = ctx.fn();
+        recordUpdate(cmd);
+        if (statistics) fn.vkCmdResetQueryPool(cmd, statistics, 0, 1);
+        timestamps->begin(cmd);
+        if (statistics) fn.vkCmdBeginQuery(cmd, statistics, 0, 0);
+        const VkClearColorValue clears[2] = {
+            {{float(draw.background.x), float(draw.background.y), float(draw.background.z), 1.0f}}, {{0.0f, 0.0f, 0.0f, 0.0f}}};
+        targets->beginRendering(cmd, clears, 1.0f);
+        recordDraw(cmd);
+        targets->endRendering(cmd);
         if (statistics) fn.vkCmdEndQuery(cmd, statistics, 0);
-        if (timestamps) fn.vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, timestamps, 1);
-        if (readBack) {
-            VkBufferImageCopy region{};
-            region.imageExtent = {static_cast<std::uint32_t>(width), static_cast<std::uint32_t>(height), 1};
-            region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-            fn.vkCmdCopyImageToBuffer(cmd, color.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, readColor->handle(), 1, &region);
-            fn.vkCmdCopyImageToBuffer(cmd, normal.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, readNormal->handle(), 1, &region);
-            region.imageSubresource.aspectMask = VK_IMAGE_ASPECT_DEPTH_BIT;
-            fn.vkCmdCopyImageToBuffer(cmd, depth.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, readDepth->handle(), 1, &region);
+        timestamps->end(cmd);
+        if (readBack) targets->copyToReadBack(cmd);
+        memoryBarrier(fn, cmd, VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_TESSELLATION_EVALUATION_SHADER_BIT,
+                      VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
+                      VK_ACCESS_HOST_READ_BIT);
+    }
+
+    void updateControlPoints() {
+        const BaseSurface& base = surface.base();
+        // As PackedSurface packs them (points to float, w = 0; corner normals with w = the
+        // extraordinary-corner flag) and as buildTopology forms the base vertices.
+        std::vector<glm::vec4> points;
+        points.reserve(base.points().size());
+        for (const glm::dvec3& q : base.points()) points.emplace_back(glm::vec3(q), 0.0f);
+        const int faces = base.faceCount();
+        std::vector<glm::vec4> corners(static_cast<std::size_t>(faces) * 4);
+        for (int f = 0; f < faces; ++f)
+            for (int c = 0; c < 4; ++c)
+                corners[static_cast<std::size_t>(f) * 4 + static_cast<std::size_t>(c)] =
+                    glm::vec4(glm::vec3(base.cornerNormal(f, c)), base.isExtraordinaryCorner(f, c) ? 1.0f : 0.0f);
+        const std::vector<glm::dvec3> limit = baseVertexLimitPositions(base);
+        if (bytesOf(points) != buffer(kPoints).size() || bytesOf(corners) != buffer(kCornerNormals).size() ||
+            limit.size() != baseVertices.size())
+            throw ArgumentError("updateControlPoints: the surface's point, face or vertex count changed (the renderer keeps its topology)");
+        for (std::size_t v = 0; v < limit.size(); ++v)
+            baseVertices[v].position = glm::vec4(glm::vec3(limit[v]), baseVertices[v].position.w);
+        std::erase_if(pending, [](const Pending& q) { return q.binding == kPoints || q.binding == kCornerNormals || q.binding == kBaseVertices; });
+        pending.push_back({kPoints, rawBytes(points), 0});
+        pending.push_back({kCornerNormals, rawBytes(corners), 0});
+        pending.push_back({kBaseVertices, rawBytes(baseVertices), 0});
+    }
+
+    void updateTiles(const std::vector<int>& edited) {
+        const TileSet& tiles = surface.tiles();
+        for (int t : edited)
+            if (t < 0 || t >= tiles.tileCount())
+                throw ArgumentError("updateTiles: tile " + std::to_string(t) + " out of range [0, " + std::to_string(tiles.tileCount()) + ")");
+        if (draw.effects.technique != Technique::Displaced) return; // no tiles on the device
+        for (int t : edited) {
+            packed.writeTile(t, tiles.tiles[static_cast<std::size_t>(t)]); // throws for another size
+            // The footprint's rows, each one update of the texture buffer.
+            const glm::ivec4 fp = packed.footprint(t);
+            for (int row = fp.y; row < fp.y + fp.w; ++row) {
+                const std::size_t first = static_cast<std::size_t>(row) * static_cast<std::size_t>(packed.width) +
+                                          static_cast<std::size_t>(fp.x);
+                const auto* bytes = reinterpret_cast<const std::uint8_t*>(packed.texels.data() + first);
+                pending.push_back({kTexels, std::vector<std::uint8_t>(bytes, bytes + static_cast<std::size_t>(fp.z) * sizeof(float)),
+                                   first * sizeof(float)});
+            }
         }
-        VkMemoryBarrier toHost{};
-        toHost.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
-        toHost.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_SHADER_WRITE_BIT;
-        toHost.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-        fn.vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_TESSELLATION_EVALUATION_SHADER_BIT,
-                                VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &toHost, 0, nullptr, 0, nullptr);
     }
 };
 
 SurfaceRenderer::SurfaceRenderer(Context& context, const SurfaceDraw& draw, const DisplacedSurface& surface,
                              const BaselineAtlas* atlas, RendererOptions options)
     : impl_(std::make_unique<Impl>(context, draw, surface, options)) {
+    const std::string device = "Vulkan device '" + context.deviceName() + "'";
     if (!context.enabledFeatures().tessellationShader)
-        throw VulkanError("Vulkan device '" + context.deviceName() + "' has no tessellation shaders");
-    if (options.captureCapacity > 0 && !context.enabledFeatures().vertexPipelineStoresAndAtomics)
-        throw VulkanError("Vulkan device '" + context.deviceName() +
-                          "' cannot store from the tessellation evaluation shader (vertexPipelineStoresAndAtomics), "
-                          "which the vertex capture needs");
-    if (draw.effects.wireframe && !context.enabledFeatures().independentBlend)
-        throw VulkanError("Vulkan device '" + context.deviceName() + "' lacks independentBlend, which the wireframe overlay needs");
+        throw VulkanError(device + ": tessellationShader is not enabled, and the renderer draws with tessellation shaders");
+    if (!context.dynamicRenderingEnabled())
+        throw VulkanError(device + ": dynamic rendering is not enabled (Vulkan 1.3 dynamicRendering or VK_KHR_dynamic_rendering), "
+                                   "which the renderer draws with");
+    // The evaluation shader declares the capture buffer writable whether the capture is compiled
+    // in or not (a specialisation constant cannot change a decoration), so the feature is
+    // needed always (the viewer's validation run found it).
+    if (!context.enabledFeatures().vertexPipelineStoresAndAtomics)
+        throw VulkanError(device + ": vertexPipelineStoresAndAtomics is not enabled; the tessellation evaluation shader "
+                                   "declares a writable buffer (the vertex capture)");
+    if (draw.effects.wireframe && !context.enabledFeatures().fillModeNonSolid)
+        throw VulkanError(device + ": fillModeNonSolid is not enabled, which the wireframe overlay needs");
+    const TargetFormats& formats = impl_->formats;
+    if (draw.effects.wireframe && formats.normal != VK_FORMAT_UNDEFINED && !context.enabledFeatures().independentBlend)
+        throw VulkanError(device + " lacks independentBlend, which the wireframe overlay needs");
     if (options.facesPerDraw < 1) throw ArgumentError("faces per draw must be >= 1");
     checkSurfaceDraw(draw);
+    if (options.target) {
+        if (formats.color == VK_FORMAT_UNDEFINED) throw ArgumentError("target formats: the colour format must be set");
+        if (!isDepthFormat(formats.depth))
+            throw ArgumentError("target formats: depth format " + std::to_string(static_cast<int>(formats.depth)) +
+                                " is not a depth format (the renderer tests depth)");
+        if (options.captureCapacity > 0) throw ArgumentError("the vertex capture is read back by render() only (no target formats)");
+        requireFormat(context, formats.color, VK_FORMAT_FEATURE_COLOR_ATTACHMENT_BIT, "a colour attachment");
+        if (formats.normal != VK_FORMAT_UNDEFINED)
+            requireFormat(context, formats.normal, VK_FORMAT_FEATURE_COLOR_ATTACHMENT_BIT, "a normal attachment");
+        requireFormat(context, formats.depth, VK_FORMAT_FEATURE_DEPTH_STENCIL_ATTACHMENT_BIT, "a depth attachment");
+    }
     const SurfaceEffects& e = draw.effects;
     if (e.technique == Technique::Baseline && !atlas)
         throw ArgumentError("the baseline technique needs its baked atlas (bakeBaseline)");
@@ -734,7 +558,6 @@ SurfaceRenderer::SurfaceRenderer(Context& context, const SurfaceDraw& draw, cons
     Impl& m = *impl_;
     m.uploadSurface(e.technique == Technique::Baseline ? atlas : nullptr);
     m.uploadMaps(e.technique == Technique::Baseline ? atlas : nullptr);
-    m.createTargets();
     m.createDescriptors();
     m.fill = m.createPipeline(false);
     if (e.wireframe) m.wire = m.createPipeline(true);
@@ -746,25 +569,49 @@ SurfaceRenderer::~SurfaceRenderer() = default;
 void SurfaceRenderer::setTessValue(double value) {
     if (!std::isfinite(value) || !(value > 0.0)) throw ArgumentError("tessellation value must be finite and > 0");
     impl_->draw.effects.tessValue = value;
-    impl_->writeParams();
 }
 
 void SurfaceRenderer::setCamera(const Camera& camera) {
     checkCamera(camera);
     impl_->draw.camera = camera;
-    impl_->writeParams();
 }
+
+void SurfaceRenderer::setImageSize(int width, int height) {
+    if (width < 1 || height < 1 || width > kMaxImageSize || height > kMaxImageSize)
+        throw ArgumentError("image size " + std::to_string(width) + " x " + std::to_string(height) + " out of range [1, " +
+                            std::to_string(kMaxImageSize) + "]");
+    impl_->width = impl_->draw.width = width;
+    impl_->height = impl_->draw.height = height;
+}
+
+void SurfaceRenderer::updateControlPoints() { impl_->updateControlPoints(); }
+void SurfaceRenderer::updateTiles(const std::vector<int>& tiles) { impl_->updateTiles(tiles); }
+
+void SurfaceRenderer::recordUpdate(VkCommandBuffer cmd) { impl_->recordUpdate(cmd); }
+
+void SurfaceRenderer::recordDraw(VkCommandBuffer cmd) { impl_->recordDraw(cmd); }
 
 glm::dmat4 SurfaceRenderer::viewProjection() const {
     return vulkan::viewProjection(impl_->draw.camera, impl_->width, impl_->height);
 }
 
+int SurfaceRenderer::width() const { return impl_->width; }
+int SurfaceRenderer::height() const { return impl_->height; }
+
 std::size_t SurfaceRenderer::uploadedBytes() const { return impl_->uploaded; }
 
 RenderedImage SurfaceRenderer::render(int frames, int warmup) {
-    if (frames < 1 || warmup < 0) throw ArgumentError("render: frames must be >= 1 and warm-up frames >= 0");
     Impl& m = *impl_;
+    if (m.options.target)
+        throw ArgumentError("render() draws into the renderer's own targets; this renderer draws into the caller's "
+                            "(RendererOptions::target): use recordUpdate and recordDraw");
+    if (frames < 1 || warmup < 0) throw ArgumentError("render: frames must be >= 1 and warm-up frames >= 0");
     const Functions& fn = m.ctx.fn();
+    if (!m.targets || m.targets->width() != m.width || m.targets->height() != m.height) {
+        m.targets.reset();
+        const VkFormat colors[2] = {kColorFormat, kNormalFormat};
+        m.targets = std::make_unique<OffscreenTargets>(m.ctx, m.width, m.height, colors, kDepthFormat);
+    }
     std::vector<double> times;
     RenderedImage out;
     for (int i = 0; i < warmup + frames; ++i) {
@@ -773,13 +620,8 @@ RenderedImage SurfaceRenderer::render(int frames, int warmup) {
             const std::uint32_t zero = 0;
             m.buffer(kCapture).upload(&zero, sizeof zero);
         }
-        m.ctx.submitAndWait([&](VkCommandBuffer cmd) { m.record(cmd, last); });
-        if (i >= warmup && m.timestamps) {
-            std::uint64_t t[2] = {0, 0};
-            DISPMAP_VK_CHECK(fn, vkGetQueryPoolResults, m.ctx.device(), m.timestamps, 0, 2, sizeof t, t, sizeof(std::uint64_t),
-                             VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT);
-            times.push_back(double(t[1] - t[0]) * m.ctx.timestampPeriodNs() * 1e-6);
-        }
+        m.ctx.submitAndWait([&](VkCommandBuffer cmd) { m.recordFrame(cmd, last); });
+        if (i >= warmup && m.ctx.timestampsSupported()) times.push_back(m.timestamps->milliseconds());
     }
     out.stats.gpuMs = median(times);
     out.stats.frames = frames;
@@ -797,9 +639,9 @@ RenderedImage SurfaceRenderer::render(int frames, int warmup) {
     out.rgba.resize(pixels * 4);
     out.normals.resize(pixels);
     out.depth.resize(pixels);
-    m.readColor->download(out.rgba.data(), out.rgba.size());
-    m.readNormal->download(out.normals.data(), pixels * sizeof(glm::vec4));
-    m.readDepth->download(out.depth.data(), pixels * sizeof(float));
+    m.targets->readBack(0).download(out.rgba.data(), out.rgba.size());
+    m.targets->readBack(1).download(out.normals.data(), pixels * sizeof(glm::vec4));
+    m.targets->readBack(2).download(out.depth.data(), pixels * sizeof(float));
     if (m.options.captureCapacity > 0) {
         std::uint32_t count = 0;
         m.buffer(kCapture).download(&count, sizeof count);

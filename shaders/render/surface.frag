@@ -2,7 +2,8 @@
 // Per-pixel normal (§5.3): D's derivatives at the pixel's (face, u, v) with the interpolated
 // frame s_u, s_v, N (approximate, §5.2) plus the Weingarten term N_u D, N_v D (accurate,
 // §5.1), blended to the limit normal near extraordinary vertices (§5.4). The baseline
-// decodes its tangent-space normal map instead; the base surface uses N.
+// decodes its tangent-space normal map instead; the base surface uses N. Built with
+// DM_COLOR_ONLY: the colour output alone (an engine's target without a normal attachment).
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
 layout(location = 0) flat in int teFace;
@@ -16,12 +17,16 @@ layout(location = 7) in vec3 teNv;
 layout(location = 8) in vec4 teEv;
 layout(location = 9) in vec3 teWorld;
 layout(location = 0) out vec4 outColor;
+#ifndef DM_COLOR_ONLY
 layout(location = 1) out vec4 outNormal; // world normal, 1 where covered
+#endif
 
 void main() {
     if (WIRE) {
         outColor = P.wireColor;
+#ifndef DM_COLOR_ONLY
         outNormal = vec4(0.0);
+#endif
         return;
     }
     vec3 N = dmSafeNormalize(teN, vec3(0.0, 0.0, 1.0));
@@ -54,5 +59,7 @@ void main() {
         c += P.lights[i].color.rgb * max(dot(n, P.lights[i].direction.xyz), 0.0);
     }
     outColor = vec4(P.albedo.rgb * c, 1.0);
+#ifndef DM_COLOR_ONLY
     outNormal = vec4(n, 1.0);
+#endif
 }

@@ -95,6 +95,33 @@ struct PackedTiles {
     std::size_t usedTexels = 0;         ///< texels inside footprints
     std::size_t paperTexels = 0;        ///< sum over tiles of (1.5 s + 4)(s + 2), §4.3
 
+    /// The texel rectangle (x, y, width, height) of record `index`'s footprint.
+    glm::ivec4 footprint(int index) const {
+        const PatchRecord& r = records.at(static_cast<std::size_t>(index));
+        const glm::ivec2 fp = kern::dmTileFootprint(kern::dmTileLog2(r.tileSize));
+        return {r.globalTextureOffsetXY[0], r.globalTextureOffsetXY[1], fp.x, fp.y};
+    }
+    /// Writes every level of `tile` into the footprint of record `index` (an edited tile of the
+    /// size it was packed with: pack() lays out by size, so the layout stays). ArgumentError for
+    /// an index out of range or another size.
+    void writeTile(int index, const Tile& tile) {
+        if (index < 0 || static_cast<std::size_t>(index) >= records.size())
+            throw ArgumentError("packed tiles: record " + std::to_string(index) + " out of range");
+        const PatchRecord& r = records[static_cast<std::size_t>(index)];
+        if (tile.size() != r.tileSize)
+            throw ArgumentError("packed tiles: tile " + std::to_string(index) + " has size " + std::to_string(tile.size()) +
+                                ", packed with " + std::to_string(r.tileSize) + " (re-pack after changing sizes)");
+        const glm::ivec2 at(r.globalTextureOffsetXY[0], r.globalTextureOffsetXY[1]);
+        for (int m = 0; m < tile.k; ++m) {
+            const glm::ivec2 o = at + kern::dmMipOffset(tile.k, m);
+            const int n = tile.levelSize(m) + 2;
+            for (int b = 0; b < n; ++b)
+                for (int a = 0; a < n; ++a)
+                    texels[static_cast<std::size_t>(o.y + b) * static_cast<std::size_t>(width) + static_cast<std::size_t>(o.x + a)] =
+                        tile.at(m, a, b);
+        }
+    }
+
     /// The renderer's displacement lookup on the CPU, kernel for kernel what the tessellation
     /// evaluation shader does: (D, D_u, D_v) with respect to the tile's (u, v) of `record`,
     /// reading the two mip levels that resolution rho selects (dmSelectMips, clamped by the
@@ -212,14 +239,6 @@ inline PackedTiles TileSet::pack() const {
     out.records.resize(tiles.size());
     for (std::size_t i = 0; i < tiles.size(); ++i) {
         const Tile& t = tiles[i];
-        for (int m = 0; m < t.k; ++m) {
-            glm::ivec2 o = at[i] + kern::dmMipOffset(t.k, m);
-            const int n = t.levelSize(m) + 2;
-            for (int b = 0; b < n; ++b)
-                for (int a = 0; a < n; ++a)
-                    out.texels[static_cast<std::size_t>(o.y + b) * static_cast<std::size_t>(out.width) +
-                               static_cast<std::size_t>(o.x + a)] = t.at(m, a, b);
-        }
         PatchRecord& r = out.records[i];
         r.globalTextureOffsetXY[0] = static_cast<std::uint16_t>(at[i].x);
         r.globalTextureOffsetXY[1] = static_cast<std::uint16_t>(at[i].y);
@@ -227,6 +246,7 @@ inline PackedTiles TileSet::pack() const {
         r.tileSize = static_cast<std::uint16_t>(t.size());
         r.rotation = 0;
         for (int c = 0; c < 4; ++c) r.tileSizeDifferences[c] = t.sizeDifferences[static_cast<std::size_t>(c)];
+        out.writeTile(static_cast<int>(i), t);
     }
     return out;
 }

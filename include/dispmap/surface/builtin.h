@@ -10,9 +10,9 @@
 
 namespace dispmap::builtin {
 
-/// The default cage: the box [-1, 1]^3 whose top is split into a pentagon and a triangle, so
-/// that it has valence-3 corners, valence-5 and valence-4 vertices and two non-quad faces
-/// (T-junctions with their quad neighbours). 7 faces, 17 Ptex faces.
+/// The default cage: the box [-1, 1]^3 with two extra vertices on its top edges, so that it has
+/// valence-3, -4 and -5 vertices and non-quad faces with T-junctions against their quad
+/// neighbours: 7 faces (3 quads, 3 pentagons, a triangle), 21 Ptex faces.
 inline ControlMesh defaultMesh() {
     static const char* obj = R"(v -1 -1 -1
 v 1 -1 -1

@@ -1,6 +1,7 @@
 #pragma once
-// dispmap::vulkan: a headless Vulkan 1.2 instance, device and queue (lavapipe by default), the
-// table of Vulkan functions loaded at run time, one-shot submissions and compute dispatches.
+// dispmap::vulkan: a headless Vulkan 1.2/1.3 instance, device and queue (lavapipe by default) or
+// the caller's own (ExternalDevice), the table of Vulkan functions loaded at run time, one-shot
+// submissions and compute dispatches.
 // There is no link-time dependency on libvulkan: the Context dlopen()s the loader and fills a
 // Functions table (VK_NO_PROTOTYPES is defined for every user of this target).
 #include <cstdint>
@@ -37,11 +38,15 @@ void check(VkResult result, const char* call);
 #define DISPMAP_VK_GLOBAL_FUNCTIONS(X)                                                                       \
     X(vkCreateInstance)                                                                                      \
     X(vkEnumerateInstanceLayerProperties)
+// Loaded where the loader has it (Vulkan 1.1 loaders and later); null otherwise.
+#define DISPMAP_VK_OPTIONAL_GLOBAL_FUNCTIONS(X) X(vkEnumerateInstanceVersion)
 #define DISPMAP_VK_INSTANCE_FUNCTIONS(X)                                                                     \
     X(vkDestroyInstance)                                                                                     \
     X(vkEnumeratePhysicalDevices)                                                                            \
     X(vkGetPhysicalDeviceProperties)                                                                         \
     X(vkGetPhysicalDeviceFeatures)                                                                           \
+    X(vkGetPhysicalDeviceFeatures2)                                                                          \
+    X(vkEnumerateDeviceExtensionProperties)                                                                  \
     X(vkGetPhysicalDeviceQueueFamilyProperties)                                                              \
     X(vkGetPhysicalDeviceMemoryProperties)                                                                   \
     X(vkGetPhysicalDeviceFormatProperties)                                                                   \
@@ -117,16 +122,24 @@ void check(VkResult result, const char* call);
     X(vkCmdBeginQuery)                                                                                \
     X(vkCmdEndQuery)                                                                                  \
     X(vkCmdSetViewport)                                                                               \
-    X(vkCmdSetScissor)
+    X(vkCmdSetScissor)                                                                                \
+    X(vkCmdUpdateBuffer)
+// Dynamic rendering, loaded only where it is enabled (Context::dynamicRenderingEnabled): the
+// Vulkan 1.3 core functions, or those of VK_KHR_dynamic_rendering (same signatures) on 1.2.
+#define DISPMAP_VK_RENDERING_FUNCTIONS(X)                                                                    \
+    X(vkCmdBeginRendering)                                                                                   \
+    X(vkCmdEndRendering)
 
 /// The dispatch table: one pointer per function of the lists above, named like the function.
 struct Functions {
     PFN_vkGetInstanceProcAddr vkGetInstanceProcAddr = nullptr;
 #define DISPMAP_VK_MEMBER(name) PFN_##name name = nullptr;
     DISPMAP_VK_GLOBAL_FUNCTIONS(DISPMAP_VK_MEMBER)
+    DISPMAP_VK_OPTIONAL_GLOBAL_FUNCTIONS(DISPMAP_VK_MEMBER)
     DISPMAP_VK_INSTANCE_FUNCTIONS(DISPMAP_VK_MEMBER)
     DISPMAP_VK_DEBUG_FUNCTIONS(DISPMAP_VK_MEMBER)
     DISPMAP_VK_DEVICE_FUNCTIONS(DISPMAP_VK_MEMBER)
+    DISPMAP_VK_RENDERING_FUNCTIONS(DISPMAP_VK_MEMBER)
 #undef DISPMAP_VK_MEMBER
 };
 
@@ -149,6 +162,18 @@ struct DeviceOptions {
     Float64 float64 = Float64::Off;
 };
 
+/// The caller's own Vulkan objects, for an engine that embeds dispmap: the Context uses them and never destroys them.
+struct ExternalDevice {
+    PFN_vkGetInstanceProcAddr getInstanceProcAddr = nullptr; // from the caller's loader
+    VkInstance instance = VK_NULL_HANDLE;
+    VkPhysicalDevice physicalDevice = VK_NULL_HANDLE;
+    VkDevice device = VK_NULL_HANDLE;
+    VkQueue queue = VK_NULL_HANDLE;           // supports graphics and compute
+    std::uint32_t queueFamily = 0;
+    VkPhysicalDeviceFeatures enabledFeatures{}; // the core features the caller enabled
+    bool dynamicRendering = false;            // the caller enabled dynamicRendering (Vulkan 1.3 or VK_KHR_dynamic_rendering)
+};
+
 class Buffer;
 class ComputePipeline;
 
@@ -158,8 +183,21 @@ class ComputePipeline;
 /// made from a Context must be destroyed before it. Not thread-safe, except takeValidationMessages.
 class Context {
   public:
+    /// Creates and owns the instance and device. Where the device has it, dynamic rendering is
+    /// enabled (the Vulkan 1.3 feature dynamicRendering, else VK_KHR_dynamic_rendering on 1.2);
+    /// see dynamicRenderingEnabled().
     explicit Context(DeviceOptions options = {});
-    /// Waits for the device to be idle, then destroys everything in reverse order of creation.
+    /// Wraps the caller's instance, device and queue (nothing of theirs is created or destroyed;
+    /// no validation messenger: the caller's instance reports). The Context creates only its own
+    /// command pool, fence, descriptor pool and query pool on that device, and loads the functions
+    /// through getInstanceProcAddr. VulkanError naming what is missing: a null handle or loader
+    /// function, a device below Vulkan 1.2, a queue family out of range or without graphics and
+    /// compute, a device function the driver does not provide. The features are what the caller
+    /// says it enabled (enabledFeatures(), dynamicRenderingEnabled()); the renderers check those
+    /// they need (tessellationShader, dynamicRendering, ...) when they are created.
+    explicit Context(const ExternalDevice& device);
+    /// Owned device: waits for the device to be idle, then destroys everything in reverse order
+    /// of creation. Wrapped device (ExternalDevice): destroys only the Context's own objects.
     ~Context();
     Context(const Context&) = delete;
     Context& operator=(const Context&) = delete;
@@ -184,6 +222,10 @@ class Context {
     bool timestampsSupported() const { return timestampBits_ > 0; }
     bool float64Enabled() const { return enabled_.shaderFloat64 == VK_TRUE; }
     bool validationEnabled() const { return messenger_ != VK_NULL_HANDLE; }
+    /// vkCmdBeginRendering / vkCmdEndRendering are loaded in fn() (what the renderers draw with).
+    bool dynamicRenderingEnabled() const { return dynamicRendering_; }
+    /// Whether the Context wraps the caller's device (ExternalDevice).
+    bool isExternal() const { return external_; }
 
     /// The validation messages recorded since the last call ("[error] <message>"), then clears them.
     std::vector<std::string> takeValidationMessages();
@@ -205,6 +247,9 @@ class Context {
 
   private:
     void create(const DeviceOptions& options);
+    void adopt(const ExternalDevice& device);
+    void loadDeviceFunctions();
+    void createSubmitObjects();
     void destroy() noexcept;
     static VKAPI_ATTR VkBool32 VKAPI_CALL onMessage(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
                                                     VkDebugUtilsMessageTypeFlagsEXT types,
@@ -228,6 +273,8 @@ class Context {
     VkFence fence_ = VK_NULL_HANDLE;
     VkDescriptorPool descriptorPool_ = VK_NULL_HANDLE;
     VkQueryPool queryPool_ = VK_NULL_HANDLE;
+    bool dynamicRendering_ = false;
+    bool external_ = false;
 
     std::mutex messagesMutex_;
     std::vector<std::string> messages_;

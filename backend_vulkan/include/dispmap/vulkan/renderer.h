@@ -1,7 +1,14 @@
 #pragma once
 // dispmap::vulkan::SurfaceRenderer: the displaced Catmull-Clark surface drawn with hardware
-// tessellation (Nießner & Loop 2013, §5.3, §5.4, §6), headless, into an offscreen colour,
-// normal and depth target that is read back.
+// tessellation (Nießner & Loop 2013, §5.3, §5.4, §6), either headless into its own offscreen
+// colour, normal and depth targets that are read back (render()), or recorded into the
+// caller's command buffer and dynamic-rendering instance with the caller's attachment formats
+// (RendererOptions::target; recordUpdate() outside, recordDraw() inside the rendering). render()
+// records the same two calls into its own targets.
+//
+// Animation (§4.1): after BaseSurface::setControlPoints, updateControlPoints() re-reads the
+// refined points, the corner limit normals and the base vertices' limit positions; they are
+// written with the next recordUpdate (or render()); nothing else is rebuilt.
 //
 // One tessellation patch per Ptex face. The control shader computes the factors by the
 // draw's method (§6.1) from the base vertices; the evaluation shader finds the OpenSubdiv
@@ -19,6 +26,7 @@
 // wireframe effect); the baseline's textures are uploaded only for the baseline technique.
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -30,6 +38,9 @@
 
 namespace dispmap::vulkan {
 
+/// Formats of the caller's attachments (dynamic rendering). normal = VK_FORMAT_UNDEFINED: no normal attachment (the fragment shader variant without that output is used).
+struct TargetFormats { VkFormat color = VK_FORMAT_B8G8R8A8_UNORM; VkFormat normal = VK_FORMAT_UNDEFINED; VkFormat depth = VK_FORMAT_D32_SFLOAT; };
+
 struct RendererOptions {
     /// Faces per draw call. Lavapipe runs one tessellated draw on one thread through a slow
     /// per-draw loop (docs/lavapipe.md), so big draws are split.
@@ -40,6 +51,8 @@ struct RendererOptions {
     /// Room for this many vertices of the evaluation shader, read back by render() (tests);
     /// 0: the capture is not compiled in.
     std::uint32_t captureCapacity = 0;
+    /// Empty: the renderer owns offscreen targets (render()). Set: it draws into the caller's attachments of these formats (recordUpdate / recordDraw); render() then throws ArgumentError.
+    std::optional<TargetFormats> target;
 };
 
 /// A vertex the evaluation shader produced (capture on).
@@ -73,25 +86,61 @@ class SurfaceRenderer {
     /// Uploads `surface` (its base surface and tiles) and, for the baseline technique, `atlas`
     /// (ArgumentError if it is missing then), and builds the pipelines `draw` asks for.
     /// Keeps references to context and surface. ArgumentError for a draw checkSurfaceDraw
-    /// rejects; VulkanError if the device lacks tessellation shaders (or vertex-pipeline
-    /// stores with capture on).
+    /// rejects, or target formats without a colour format or with a depth format that is not
+    /// one; VulkanError if the context has not enabled tessellationShader,
+    /// vertexPipelineStoresAndAtomics (the evaluation shader declares the writable capture
+    /// buffer) or dynamic rendering (or fillModeNonSolid for the wireframe, independentBlend
+    /// for the wireframe with a normal attachment), or the device cannot render to the target
+    /// formats.
     SurfaceRenderer(Context& context, const SurfaceDraw& draw, const DisplacedSurface& surface,
                   const BaselineAtlas* atlas = nullptr, RendererOptions options = {});
+    /// Waits for the device to be idle (frames recorded into the caller's command buffers may
+    /// still run), then destroys the renderer's buffers, images and pipelines.
     ~SurfaceRenderer();
     SurfaceRenderer(const SurfaceRenderer&) = delete;
     SurfaceRenderer& operator=(const SurfaceRenderer&) = delete;
 
     /// Renders `frames` times (the first `warmup` untimed: lavapipe compiles shaders at first
-    /// use) and reads back the last. GPU time is the median over the timed frames.
+    /// use) and reads back the last. GPU time is the median over the timed frames. Each frame is
+    /// recordUpdate + recordDraw into the renderer's own targets (colour R8G8B8A8_UNORM, normal
+    /// R32G32B32A32_SFLOAT, depth D32_SFLOAT, at the current image size), submitted and waited
+    /// for. ArgumentError for frames < 1 or warmup < 0, or with RendererOptions::target set.
     RenderedImage render(int frames = 1, int warmup = 1);
 
-    /// Changes the factor value (uniform factor or method constant c) for the next render.
+    /// Outside any render pass / rendering instance: writes this frame's parameters (camera, factors, lights) and any pending geometry into the renderer's buffers with vkCmdUpdateBuffer (so several frames may be in flight) and the barriers the draw needs.
+    /// The command buffer must be on the context's device and a queue of its queue family that
+    /// supports graphics; the barriers are global memory barriers (earlier shader reads before
+    /// the writes, the writes before this frame's shader reads).
+    void recordUpdate(VkCommandBuffer cmd);
+    /// Inside the caller's vkCmdBeginRendering whose attachments have the TargetFormats given: sets viewport and scissor to the draw's size, binds and draws. The caller owns layouts, clears and barriers of its attachments. Depth: 0 near, 1 far, compare LESS.
+    void recordDraw(VkCommandBuffer cmd);
+    /// The image size the next frames are drawn at (screen-space factors and the viewport); ArgumentError outside [1, kMaxImageSize].
+    void setImageSize(int width, int height);
+    /// After surface.base().setControlPoints(...): re-reads the refined points, corner limit normals and base-vertex limit positions (nothing else is rebuilt) and uploads them with the next recordUpdate (or render()).
+    /// The next recordUpdate writes them once (the command buffer it records into must be
+    /// submitted); later frames see them in queue order. Per-face choices made from the shape
+    /// at creation stay (auto normals: DisplacedSurface's per-face choice; the baseline's baked
+    /// atlas). ArgumentError if the point or face counts differ from those at creation.
+    void updateControlPoints();
+
+    /// Edits (§5): after the surface's tiles changed in place (TileFitter::refit returns the
+    /// tiles it rewrote), writes those tiles' footprints of the packed texture with the next
+    /// recordUpdate (or render()); nothing else is re-packed or uploaded. The tiles keep their
+    /// sizes. ArgumentError for a tile id out of range or a tile whose size changed.
+    void updateTiles(const std::vector<int>& tiles);
+
+    /// Changes the factor value (uniform factor or method constant c) for the next frame
+    /// (written by recordUpdate).
     void setTessValue(double value);
-    /// Moves the camera for the next render (ArgumentError for a camera checkSurfaceDraw rejects).
+    /// Moves the camera for the next frame (ArgumentError for a camera checkSurfaceDraw rejects).
     void setCamera(const Camera& camera);
 
-    /// The world-to-clip matrix of the current camera (Vulkan clip space, y down, depth 0..1).
+    /// The world-to-clip matrix of the current camera and image size (Vulkan clip space, y
+    /// down, depth 0..1).
     glm::dmat4 viewProjection() const;
+    /// The current image size (SurfaceDraw::width/height, then setImageSize).
+    int width() const;
+    int height() const;
     /// Bytes uploaded for the surface (patch table, quadtree, tiles, topology; baseline maps).
     std::size_t uploadedBytes() const;
 
