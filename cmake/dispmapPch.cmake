@@ -2,7 +2,7 @@
 # test and tool targets (never for the library, which stays header-only and is not touched).
 # The set is the standard and third-party headers most of their translation units parse; the
 # project's own headers stay out, so an edited header rebuilds only the files that include it.
-# Measured side by side in the closing note of issue 13 (clean build of the dev preset).
+# The build-time comparison, and the command that measures it, is in docs/figures.md ("Build time").
 function(dispmap_precompile target)
   cmake_parse_arguments(PARSE_ARGV 1 A "CATCH;VULKAN;CLI" "" "")
   set(headers

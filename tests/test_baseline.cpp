@@ -20,6 +20,10 @@
 #include "dispmap/surface/builtin.h"
 #include "dispmap/io/png.h"
 
+// Everything of this file in its own namespace: the tests build as a unity build
+// (tests/CMakeLists.txt), where each file's helpers must not meet another's.
+namespace dmtest_baseline {
+
 using namespace dispmap;
 
 namespace {
@@ -327,3 +331,5 @@ TEST_CASE("RGBA PNG: round trip, converted inputs, bad files", "[baseline][png]"
     CHECK_THROWS_AS(writeRgbaPng(dir.file("no/such/dir/z.png"), 7, 5, px.data()), FileError);
     CHECK(!std::filesystem::exists(dir.file("z.png")));
 }
+
+} // namespace dmtest_baseline

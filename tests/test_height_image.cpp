@@ -19,6 +19,10 @@
 
 #include "dispmap/io/png.h"
 
+// Everything of this file in its own namespace: the tests build as a unity build
+// (tests/CMakeLists.txt), where each file's helpers must not meet another's.
+namespace dmtest_height_image {
+
 namespace fs = std::filesystem;
 using dispmap::ArgumentError;
 using dispmap::FileError;
@@ -330,3 +334,5 @@ TEST_CASE("height image: invalid images are not written, nothing half-written", 
     }
     REQUIRE(dir.entries() == std::set<std::string>{"h.png"}); // no temporaries
 }
+
+} // namespace dmtest_height_image

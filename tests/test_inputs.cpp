@@ -13,6 +13,10 @@
 #include "test_files.h"
 #include "test_support.h"
 
+// Everything of this file in its own namespace: the tests build as a unity build
+// (tests/CMakeLists.txt), where each file's helpers must not meet another's.
+namespace dmtest_inputs {
+
 using namespace dispmap;
 using Catch::Contains;
 
@@ -146,3 +150,5 @@ TEST_CASE("Spot with the brick image: a real cage, real UVs, a real height field
     for (const Tile& t : ts.tiles)
         for (float c : t.coefficients) REQUIRE(std::isfinite(c));
 }
+
+} // namespace dmtest_inputs

@@ -10,6 +10,10 @@
 #include "dispmap/surface/tile_builder.h"
 #include "test_support.h"
 
+// Everything of this file in its own namespace: the tests build as a unity build
+// (tests/CMakeLists.txt), where each file's helpers must not meet another's.
+namespace dmtest_lod {
+
 using namespace dispmap;
 
 TEST_CASE("tessellation factors per vertex, edge and inner", "[lod]") {
@@ -95,3 +99,5 @@ TEST_CASE("crack-free LOD: both faces of every edge choose the same resolution, 
         CHECK(compared > 0);
     }
 }
+
+} // namespace dmtest_lod

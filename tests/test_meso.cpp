@@ -9,6 +9,10 @@
 #include "dispmap/meso/solid.h"
 #include "test_meso_support.h"
 
+// Everything of this file in its own namespace: the tests build as a unity build
+// (tests/CMakeLists.txt), where each file's helpers must not meet another's.
+namespace dmtest_meso {
+
 using namespace dispmap;
 using dmtest::mesoField;
 
@@ -546,3 +550,5 @@ TEST_CASE("non-height-field mesostructure: beads from a mesh", "[meso][solid]") 
     flat[1].x = std::numeric_limits<double>::quiet_NaN();
     CHECK_THROWS_WITH(mesoSolidFromMesh(flat, {{0, 1, 2}}, 12, 12, 8), Catch::Contains("not finite"));
 }
+
+} // namespace dmtest_meso

@@ -19,6 +19,10 @@
 #include "dispmap/surface/packed_surface.h"
 #include "test_support.h"
 
+// Everything of this file in its own namespace: the tests build as a unity build
+// (tests/CMakeLists.txt), where each file's helpers must not meet another's.
+namespace dmtest_packed_surface {
+
 using namespace dispmap;
 
 namespace {
@@ -475,3 +479,5 @@ TEST_CASE("packed surface: hard cases and bad inputs", "[packed]") {
     CHECK_THROWS_WITH(packed.evaluate<double>(1, 0.5, 0.5), Catch::Contains("hole"));
     CHECK_THROWS_AS(holes.evaluate<double>(1, 0.5, 0.5), ArgumentError);
 }
+
+} // namespace dmtest_packed_surface

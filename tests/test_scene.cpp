@@ -16,6 +16,10 @@
 #include "dispmap/scene/build.h"
 #include "dispmap/scene/scene.h"
 
+// Everything of this file in its own namespace: the tests build as a unity build
+// (tests/CMakeLists.txt), where each file's helpers must not meet another's.
+namespace dmtest_scene {
+
 using namespace dispmap;
 
 namespace {
@@ -195,6 +199,10 @@ TEST_CASE("scene: every key parsed, and toJson round-trips", "[scene]") {
     CHECK(s.effects.normals == NormalMode::Auto);
     CHECK(s.effects.autoToleranceDeg == 0.5);
     CHECK(s.effects.lod == MipSelection::TexelRatio);
+    // The rule's former name in older scene files still reads, and is written by its new one.
+    const Scene former = parseScene(R"({"effects": {"lod": "seed004"}})", "former.json", "");
+    CHECK(former.effects.lod == MipSelection::TexelRatio);
+    CHECK(toJson(former).find("\"texelratio\"") != std::string::npos);
     CHECK(s.effects.tessMethod == TessMethod::ScreenArea);
     CHECK(s.effects.tessValue == 12.5);
     CHECK(s.effects.maxFactor == 32);
@@ -428,3 +436,5 @@ TEST_CASE("builtin: meshes by name", "[scene][builtin]") {
     CHECK(std::abs(builtin::defaultDisplacement(3, 0.2, 0.9)) <= 0.07);
     CHECK(builtin::torusDisplacement(4, 0.0, 0.5) == Approx(0.0).margin(1e-12)); // the far side: no amplitude
 }
+
+} // namespace dmtest_scene

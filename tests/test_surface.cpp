@@ -26,6 +26,10 @@
 #include "dispmap/surface/tile_builder.h"
 #include "test_support.h"
 
+// Everything of this file in its own namespace: the tests build as a unity build
+// (tests/CMakeLists.txt), where each file's helpers must not meet another's.
+namespace dmtest_surface {
+
 using namespace dispmap;
 using glm::dvec2;
 using glm::dvec3;
@@ -1474,3 +1478,5 @@ TEST_CASE("degenerate normal: the fallback points like the normal just inside", 
             CHECK(glm::dot(N, inside) > std::cos(1e-2));
         }
 }
+
+} // namespace dmtest_surface

@@ -18,6 +18,10 @@
 #include "test_files.h"
 #include "test_support.h"
 
+// Everything of this file in its own namespace: the tests build as a unity build
+// (tests/CMakeLists.txt), where each file's helpers must not meet another's.
+namespace dmtest_tessellate {
+
 using namespace dispmap;
 
 namespace {
@@ -63,7 +67,7 @@ DisplacementFunction bumps(double size) {
 
 // Sizes mixed per face (2..4) where the builder allows it: faces touching a non-quad get at
 // least 3, quads sharing an edge with a non-quad exactly 3, non-quads 3 (sub-faces 2).
-std::vector<int> mixedTileSizes(const ControlMesh& mesh, unsigned seed) {
+std::vector<int> randomTileSizes(const ControlMesh& mesh, unsigned seed) {
     const Far::TopologyLevel& L = mesh.base();
     const int nf = L.GetNumFaces();
     std::mt19937 rng(seed);
@@ -101,7 +105,7 @@ std::vector<int> mixedTileSizes(const ControlMesh& mesh, unsigned seed) {
 std::unique_ptr<Scene> makeScene(const std::string& name, bool mixed = false) {
     ControlMesh mesh = dmtest::shape(name);
     const double size = meanEdge(mesh);
-    const std::vector<int> k = mixed ? mixedTileSizes(mesh, 11) : uniformTileSizes(mesh, 3);
+    const std::vector<int> k = mixed ? randomTileSizes(mesh, 11) : uniformTileSizes(mesh, 3);
     return std::make_unique<Scene>(std::move(mesh), k, bumps(size), size);
 }
 
@@ -565,3 +569,5 @@ TEST_CASE("tessellator: bad inputs are rejected with a message", "[tessellate]")
     so.tMax = 2;
     REQUIRE_THROWS_WITH(measureSwimming(sc->surface, so), Catch::Contains("is invalid"));
 }
+
+} // namespace dmtest_tessellate

@@ -20,6 +20,10 @@
 
 #include "dispmap/io/tile_file.h"
 
+// Everything of this file in its own namespace: the tests build as a unity build
+// (tests/CMakeLists.txt), where each file's helpers must not meet another's.
+namespace dmtest_tile_file {
+
 namespace fs = std::filesystem;
 using dispmap::ArgumentError;
 using dispmap::FileError;
@@ -299,3 +303,5 @@ TEST_CASE("tile file: a failed write leaves nothing half-written", "[tile_file]"
         REQUIRE(readBytes(dir.file("occupied/keep.txt")) == std::vector<unsigned char>{'k', 'e', 'e', 'p'});
     }
 }
+
+} // namespace dmtest_tile_file

@@ -14,6 +14,10 @@
 #include "dispmap/surface/tile_builder.h"
 #include "test_support.h"
 
+// Everything of this file in its own namespace: the tests build as a unity build
+// (tests/CMakeLists.txt), where each file's helpers must not meet another's.
+namespace dmtest_tiles {
+
 using namespace dispmap;
 using dispmap::kern::dmBSpline2;
 using dispmap::kern::dmBSpline2D1;
@@ -287,6 +291,9 @@ TEST_CASE("edits: TileFitter re-fits only the edited tiles and rewrites only wha
     const auto bad = [](int face, double, double) { return face == 1 ? std::nan("") : 0.0; };
     CHECK_THROWS_WITH(f.refit({0, 1}, bad), Catch::Contains("displacement source gave nan at Ptex face 1"));
     CHECK(f.tiles().tiles[0].coefficients == before.tiles[0].coefficients); // nothing changed
+    const TileSet taken = std::move(f).takeTiles();
+    CHECK(taken.tileCount() == 6);
+    CHECK_THROWS_WITH(f.refit({0}, dmtest::roughSource), Catch::Contains("taken out")); // NOLINT(bugprone-use-after-move)
 }
 
 TEST_CASE("mixed tile sizes: continuity at every level both tiles have, consistent clamps", "[continuity][mixed]") {
@@ -462,3 +469,5 @@ TEMPLATE_TEST_CASE("fixed-order sums agree with a long double reference", "[kern
             CHECK(mv[r] == ((m[0][r] * b.x + m[1][r] * b.y) + m[2][r] * b.z));
     }
 }
+
+} // namespace dmtest_tiles

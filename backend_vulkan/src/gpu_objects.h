@@ -2,8 +2,9 @@
 // The Vulkan objects both renderers (SurfaceRenderer, MesoRenderer) are built from: images,
 // barriers, a descriptor set of storage buffers and sampled images with its pipeline layout,
 // a graphics pipeline for dynamic rendering, offscreen targets with read-back, a timestamp
-// pair. Internal to the backend (not installed). Each object is move-only, owns its Vulkan
-// handles and must not outlive its Context; destroying one does not wait for the device.
+// pair. Internal to the backend (not installed). Image is move-only, the others neither copy
+// nor move; each owns its Vulkan handles and must not outlive its Context; destroying one does
+// not wait for the device.
 #include <cstddef>
 #include <cstdint>
 #include <memory>

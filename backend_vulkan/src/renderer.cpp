@@ -46,9 +46,9 @@ struct GpuParams {
     glm::mat4 viewProj;
     glm::vec4 eye, viewport, tess, albedo, wireColor, atlas;
     glm::ivec4 counts;
-    GpuLight lights[4];
+    GpuLight lights[kMaxLights];
 };
-static_assert(sizeof(GpuParams) == 64 + 6 * 16 + 16 + 4 * 32, "Params block of common.glsl");
+static_assert(sizeof(GpuParams) == 64 + 6 * 16 + 16 + kMaxLights * 32, "Params block of common.glsl");
 struct GpuFace {
     glm::uvec4 corners;
     glm::ivec4 info;
@@ -260,10 +260,10 @@ struct SurfaceRenderer::Impl {
         p.tess = glm::vec4(float(e.tessValue), float(e.maxFactor), 0.0f, 0.0f);
         p.albedo = glm::vec4(glm::vec3(draw.albedo), float(draw.ambient));
         p.wireColor = glm::vec4(0.05f, 0.05f, 0.05f, 1.0f);
-        p.counts = glm::ivec4(static_cast<int>(std::min<std::size_t>(draw.lights.size(), 4)),
+        p.counts = glm::ivec4(static_cast<int>(std::min<std::size_t>(draw.lights.size(), kMaxLights)),
                               static_cast<int>(options.captureCapacity), surface.tiles().tileCount() ? packedWidth : 0, 0);
         p.atlas = glm::vec4(float(atlasW), float(atlasH), float(atlasN), 0.0f);
-        for (std::size_t i = 0; i < draw.lights.size() && i < 4; ++i) {
+        for (std::size_t i = 0; i < draw.lights.size() && i < kMaxLights; ++i) {
             p.lights[i].direction = glm::vec4(glm::vec3(glm::normalize(draw.lights[i].direction)), 0.0f);
             p.lights[i].color = glm::vec4(glm::vec3(draw.lights[i].color), 0.0f);
         }
@@ -498,8 +498,11 @@ struct SurfaceRenderer::Impl {
             if (t < 0 || t >= tiles.tileCount())
                 throw ArgumentError("updateTiles: tile " + std::to_string(t) + " out of range [0, " + std::to_string(tiles.tileCount()) + ")");
         if (draw.effects.technique != Technique::Displaced) return; // no tiles on the device
+        for (int t : edited) // every size checked before anything is written
+            if (tiles.tiles[static_cast<std::size_t>(t)].size() != packed.records[static_cast<std::size_t>(t)].tileSize)
+                throw ArgumentError("updateTiles: tile " + std::to_string(t) + " changed its size (build a new renderer)");
         for (int t : edited) {
-            packed.writeTile(t, tiles.tiles[static_cast<std::size_t>(t)]); // throws for another size
+            packed.writeTile(t, tiles.tiles[static_cast<std::size_t>(t)]);
             // The footprint's rows, each one update of the texture buffer.
             const glm::ivec4 fp = packed.footprint(t);
             for (int row = fp.y; row < fp.y + fp.w; ++row) {
@@ -540,6 +543,10 @@ SurfaceRenderer::SurfaceRenderer(Context& context, const SurfaceDraw& draw, cons
         if (!isDepthFormat(formats.depth))
             throw ArgumentError("target formats: depth format " + std::to_string(static_cast<int>(formats.depth)) +
                                 " is not a depth format (the renderer tests depth)");
+        if (formats.depth == VK_FORMAT_D16_UNORM_S8_UINT || formats.depth == VK_FORMAT_D24_UNORM_S8_UINT ||
+            formats.depth == VK_FORMAT_D32_SFLOAT_S8_UINT)
+            throw ArgumentError("target formats: depth format " + std::to_string(static_cast<int>(formats.depth)) +
+                                " has stencil; the pipelines declare a depth-only attachment (D16, X8_D24 or D32)");
         if (options.captureCapacity > 0) throw ArgumentError("the vertex capture is read back by render() only (no target formats)");
         requireFormat(context, formats.color, VK_FORMAT_FEATURE_COLOR_ATTACHMENT_BIT, "a colour attachment");
         if (formats.normal != VK_FORMAT_UNDEFINED)

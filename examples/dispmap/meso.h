@@ -1,5 +1,5 @@
 #pragma once
-// Per-pixel mesostructure figures (issue 6): the scenes, the camera that turns pixels into
+// Per-pixel mesostructure figures: the scenes, the camera that turns pixels into
 // voxel-space rays, the accuracy-vs-time table (Mehra & Kumar Tables 1-3 measured here) and
 // the iteration pictures (their Figure 7), and `dispmap meso`.
 #include <functional>

@@ -99,6 +99,7 @@ vec4 dmMesoFetchQuadric(DmMesoSize s, int i, int j, int part) {
     return dmMesoQuadrics[3 * (dmMesoWrap(j, s.height) * s.width + dmMesoWrap(i, s.width)) + part];
 }
 #include "meso_march.glsl"
+#undef DmMesoMaps
 
 // The marchers as the stage shaders call them (meso.frag, parity_meso.comp).
 DmMesoHit dmMarchDistanceMap(DmMesoSize s, vec3 o, vec3 d, int iterations, float eps) {

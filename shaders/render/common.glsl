@@ -45,7 +45,7 @@ layout(std430, set = 0, binding = 0) readonly buffer Params {
     vec4 wireColor;
     vec4 atlas;     // baseline atlas width, height, texels per face edge, 0
     ivec4 counts;   // light count, capture capacity, packed tile texture width, 0
-    Light lights[4];
+    Light lights[8]; // kMaxLights (surface/draw.h)
 } P;
 layout(std430, set = 0, binding = 1) readonly buffer Points { vec4 points[]; };
 layout(std430, set = 0, binding = 2) readonly buffer PatchIndices { uint patchIndices[]; };

@@ -392,6 +392,20 @@ TEST_CASE("engine: edited tiles through updateTiles render what a renderer of th
     dmgpu::checkNoValidationMessages();
 }
 
+TEST_CASE("engine: every light of a draw is shaded (up to kMaxLights)", "[engine]") {
+    Context& ctx = dmgpu::context();
+    Surface s;
+    SurfaceDraw four = smallDraw();
+    four.lights.assign(4, Light{{0.0, 0.0, 1.0}, {0.05, 0.05, 0.05}});
+    SurfaceDraw eight = four;
+    for (int i = 0; i < 4; ++i) eight.lights.push_back(Light{{0.3 * i - 0.5, 1.0, 0.2}, {0.2, 0.1, 0.05}});
+    const RenderedImage a = SurfaceRenderer(ctx, four, s.surface).render(1, 0);
+    const RenderedImage b = SurfaceRenderer(ctx, eight, s.surface).render(1, 0);
+    CHECK(a.rgba != b.rgba);   // the last four lights add light
+    CHECK(a.depth == b.depth); // to the same geometry
+    dmgpu::checkNoValidationMessages();
+}
+
 TEST_CASE("engine: image size changes, and what the engine mode refuses", "[engine]") {
     Context& ctx = dmgpu::context();
     const Surface s;

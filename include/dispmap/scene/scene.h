@@ -354,7 +354,11 @@ inline Scene parseScene(std::string_view json, const std::string& name, const st
         if (has(e, "technique")) o.technique = r.choice(e["technique"], "effects.technique", detail::kSceneTechniques);
         if (has(e, "normals")) o.normals = r.choice(e["normals"], "effects.normals", detail::kSceneNormals);
         if (has(e, "autoTolerance")) o.autoToleranceDeg = r.number(e["autoTolerance"], "effects.autoTolerance", 0.0, 90.0);
-        if (has(e, "lod")) o.lod = r.choice(e["lod"], "effects.lod", detail::kSceneLods);
+        if (has(e, "lod")) {
+            // "seed004": the texel-ratio rule's former name, still read (written as "texelratio").
+            const bool formerName = e["lod"].is_string() && e["lod"].get<std::string>() == "seed004";
+            o.lod = formerName ? MipSelection::TexelRatio : r.choice(e["lod"], "effects.lod", detail::kSceneLods);
+        }
         if (has(e, "wireframe")) o.wireframe = r.boolean(e["wireframe"], "effects.wireframe");
         if (has(e, "tessellation")) {
             const Json& t = e["tessellation"];

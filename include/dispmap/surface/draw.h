@@ -68,7 +68,7 @@ struct SurfaceEffects {
 /// effects. The renderers validate it (ArgumentError naming the value).
 struct SurfaceDraw {
     Camera camera;
-    std::vector<Light> lights{Light{}}; ///< 0..kMaxLights (the renderer shades with the first 4)
+    std::vector<Light> lights{Light{}}; ///< 0..kMaxLights
     double ambient = 0.15;               ///< >= 0
     glm::dvec3 albedo{0.8, 0.78, 0.74};  ///< [0, 1] per channel
     glm::dvec3 background{0.0, 0.0, 0.0}; ///< [0, 1] per channel

@@ -457,9 +457,16 @@ class TileFitter {
     TileFitter(const ControlMesh& mesh, const std::vector<int>& k, const DisplacementFunction& source,
                const BuildOptions& options = {});
 
-    const TileSet& tiles() const { return tiles_; }
+    /// The tiles (held on the heap: a DisplacedSurface built on them stays valid when the
+    /// fitter moves, and sees refit()'s changes in place). Not on a temporary fitter.
+    const TileSet& tiles() const& { return *tiles_; }
+    const TileSet& tiles() const&& = delete;
     /// The tiles, moved out (the fitter cannot refit afterwards).
-    TileSet takeTiles() && { return std::move(tiles_); }
+    TileSet takeTiles() && {
+        TileSet out = std::move(*tiles_);
+        build_.reset(); // refit() refuses from now on
+        return out;
+    }
     /// The last fit's report (the constructor's, or the last refit's: sweeps over the edited
     /// tiles; the residuals are over every tile).
     const BuildReport& report() const { return report_; }
@@ -481,7 +488,7 @@ class TileFitter {
     std::unique_ptr<TileTopology> topo_;      // heap: TileBuild keeps a reference to it
     std::unique_ptr<detail::TileBuild> build_;
     std::vector<std::vector<double>> samples_;
-    TileSet tiles_;
+    std::unique_ptr<TileSet> tiles_ = std::make_unique<TileSet>();
     BuildReport report_;
 };
 
@@ -550,9 +557,9 @@ inline TileFitter::TileFitter(const ControlMesh& mesh, const std::vector<int>& k
     std::vector<int> all(static_cast<std::size_t>(n));
     for (int t = 0; t < n; ++t) all[static_cast<std::size_t>(t)] = t;
     solve(all);
-    tiles_.filter = options.filter;
-    tiles_.topologyHash = topologyHash(mesh);
-    tiles_.tiles.resize(static_cast<std::size_t>(n));
+    tiles_->filter = options.filter;
+    tiles_->topologyHash = topologyHash(mesh);
+    tiles_->tiles.resize(static_cast<std::size_t>(n));
     store(nullptr);
 }
 
@@ -600,7 +607,7 @@ inline void TileFitter::store(std::vector<int>* changed) {
                 kt + topo.scale(t) - gmin_[static_cast<std::size_t>(topo.cornerVertex(t, c))]);
         for (int m = 0; m < kt; ++m)
             for (double x : b.level(t)[static_cast<std::size_t>(m)]) tile.coefficients.push_back(static_cast<float>(x));
-        Tile& stored = tiles_.tiles[static_cast<std::size_t>(t)];
+        Tile& stored = tiles_->tiles[static_cast<std::size_t>(t)];
         if (!changed || stored.coefficients != tile.coefficients) {
             if (changed) changed->push_back(t);
             stored = std::move(tile);
