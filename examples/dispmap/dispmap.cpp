@@ -401,9 +401,12 @@ int main(int argc, char** argv) {
     tessCmd->add_option("--spacing", ts.options.spacing, "fractional (continuous, like fractional_even) or integer")
         ->transform(CLI::CheckedTransformer(
             std::map<std::string, Spacing>{{"fractional", Spacing::FractionalEven}, {"integer", Spacing::Integer}}));
-    tessCmd->add_option("--mips", ts.options.mips, "mip selection from the factor: off, tf (log2 TF, paper 6.2), texelratio")
-        ->transform(CLI::CheckedTransformer(std::map<std::string, MipSelection>{
-            {"off", MipSelection::Off}, {"tf", MipSelection::TessFactor}, {"texelratio", MipSelection::TexelRatio}}));
+    tessCmd->add_option("--mips", ts.options.mips,
+                        "mip selection from the factor: off, tf (log2 TF, paper 6.2), texelratio (seed004: its former name)")
+        ->transform(CLI::CheckedTransformer(std::map<std::string, MipSelection>{{"off", MipSelection::Off},
+                                                                                {"tf", MipSelection::TessFactor},
+                                                                                {"texelratio", MipSelection::TexelRatio},
+                                                                                {"seed004", MipSelection::TexelRatio}}));
     auto* benchCmd = app.add_subcommand("bench", "mip accuracy table and timings (Google Benchmark flags pass through)");
     std::string csv;
     benchCmd->add_option("--csv", csv, "also write the mip table as CSV");
