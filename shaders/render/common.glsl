@@ -10,6 +10,7 @@
 #include "normal.glsl"
 #include "patch.glsl"
 #include "baseline.glsl"
+#include "sharp.glsl"
 
 // Effects (specialisation constants; code of an effect that is off is removed when the
 // pipeline is created). DM_LEAN builds the shaders without the optional effects at all, for
@@ -39,8 +40,8 @@ struct Light {
 layout(std430, set = 0, binding = 0) readonly buffer Params {
     mat4 viewProj;
     vec4 eye;       // xyz
-    vec4 viewport;  // width, height, 0, 0 (pixels)
-    vec4 tess;      // factor value or constant c, max factor, 0, 0
+    vec4 viewport;  // width, height (pixels), sharp features' cap radius (DisplacedSurface::sharpCapRadius), 0
+    vec4 tess;      // factor value or constant c, max factor, sharp-feature band, 1: end-cap normals (§5.4)
     vec4 albedo;    // rgb, ambient
     vec4 wireColor;
     vec4 atlas;     // baseline atlas width, height, texels per face edge, 0
@@ -57,7 +58,8 @@ layout(std430, set = 0, binding = 7) readonly buffer Texels { float texels[]; };
 layout(std430, set = 0, binding = 8) readonly buffer Records { uvec4 records[]; };
 struct Face {
     uvec4 corners; // TileTopology vertex ids of the corners (0 (0,0), 1 (1,0), 2 (1,1), 3 (0,1))
-    ivec4 info;    // x: 1 for a sub-face of an N-gon, y: auto mode's accurate flag, z: T-junction edge bits, w: 0
+    ivec4 info;    // x: 1 for a sub-face of an N-gon, y: auto mode's accurate flag, z: T-junction edge bits,
+                   // w: sharp-feature mask (BaseSurface::sharpMask; 0 with the band off)
     uvec4 chart;   // baseline atlas chart origin (x, y), 0, 0
 };
 layout(std430, set = 0, binding = 9) readonly buffer Faces { Face faces[]; };
@@ -89,10 +91,95 @@ int packedWidth() {
 }
 #include "../packed_tiles.glsl"
 
-// (D, D_u, D_v) at face (u, v) read at resolution rho (the tile records are per Ptex face).
+// (D, D_u, D_v) at face (u, v) read at resolution rho (the tile records are per Ptex face),
+// faded towards sharp features (DisplacedSurface::featheredAt).
 vec3 sampleD1(int face, vec2 uv, float rho) {
     float weight;
-    return packedSampleD1(records[face], uv, rho, weight);
+    vec3 d1 = packedSampleD1(records[face], uv, rho, weight);
+    return dmSharpFeather(uv, faces[face].info.w, faces[face].info.x, P.tess.z, P.viewport.z, d1);
+}
+
+// The patch record holding face (u, v): down the face's quadtree (PackedSurface).
+uvec4 findPatch(int face, vec2 uv) {
+    uint node = faceRoots[face];
+    vec2 q = uv;
+    while ((node & DM_LEAF) == 0u) {
+        int c = dmQuadTreeStep(q);
+        node = nodes[node][c];
+    }
+    return patches[node & ~DM_LEAF];
+}
+
+// s and its derivatives (second ones included) of the patch `patchRec` at face (u, v).
+void evaluatePatch2(uvec4 patchRec, vec2 uv, out vec3 p, out vec3 su, out vec3 sv, out vec3 suu, out vec3 suv, out vec3 svv) {
+    float w[20];
+    float wu[20];
+    float wv[20];
+    float wuu[20];
+    float wuv[20];
+    float wvv[20];
+    int count = int(patchRec.y);
+    dmPatchBasis2(patchRec.zw, count, uv, w, wu, wv, wuu, wuv, wvv);
+    p = vec3(0.0);
+    su = vec3(0.0);
+    sv = vec3(0.0);
+    suu = vec3(0.0);
+    suv = vec3(0.0);
+    svv = vec3(0.0);
+    for (int i = 0; i < count; ++i) {
+        vec3 x = points[patchIndices[patchRec.x + uint(i)]].xyz;
+        p += w[i] * x;
+        su += wu[i] * x;
+        sv += wv[i] * x;
+        suu += wuu[i] * x;
+        suv += wuv[i] * x;
+        svv += wvv[i] * x;
+    }
+}
+
+// §5.4 (DisplacedSurface::endCapNormal): the normal at face (u, v) of an end-cap patch,
+// interpolated from the displaced normals at the patch's corners and the limit normal at its
+// extraordinary corner. `n` where a regular patch holds (u, v) (an interpolated pixel just
+// outside the end cap).
+vec3 endCapNormal(int face, vec2 uv, float rho, bool accurate, vec3 n) {
+    uvec4 patchRec = findPatch(face, uv);
+    if (dmPatchRegular(patchRec.zw)) {
+        return n;
+    }
+    float size = 1.0 / float(1 << dmPatchDomainLevel(patchRec.zw));
+    vec2 origin = vec2(dmPatchOffset(patchRec.zw)) * size;
+    vec2 centre = origin + vec2(0.5 * size);
+    vec3 nc[4];
+    for (int c = 0; c < 4; ++c) {
+        vec2 corner = vec2((c == 1 || c == 2) ? 1.0 : 0.0, c >= 2 ? 1.0 : 0.0);
+        vec2 cuv = origin + corner * size;
+        vec4 cn = cornerNormals[face * 4 + c];
+        if (cn.w != 0.0 && cuv == corner) {
+            nc[c] = cn.xyz;
+        } else {
+            vec3 p;
+            vec3 su;
+            vec3 sv;
+            vec3 suu;
+            vec3 suv;
+            vec3 svv;
+            // In the patch beyond the corner (BaseSurface::endCapCorners: regular there).
+            evaluatePatch2(findPatch(face, clamp(2.0 * cuv - centre, vec2(0.0), vec2(1.0))), cuv, p, su, sv, suu, suv, svv);
+            vec3 N = dmBaseNormal(su, sv, suu, suv, svv, cuv, vec3(0.0, 0.0, 1.0));
+            vec3 d1 = sampleD1(face, cuv, rho);
+            vec3 fu;
+            vec3 fv;
+            if (accurate) {
+                vec3 Nu;
+                vec3 Nv;
+                dmNormalDerivWeingarten(su, sv, suu, suv, svv, N, 1e-3, Nu, Nv);
+                nc[c] = dmDisplacedNormalAccurate(su, sv, N, Nu, Nv, d1, fu, fv);
+            } else {
+                nc[c] = dmDisplacedNormalApprox(su, sv, N, d1, fu, fv);
+            }
+        }
+    }
+    return dmEndCapNormal(nc[0], nc[1], nc[2], nc[3], dmPatchLocal(patchRec.zw, uv));
 }
 
 // The baseline atlas coordinate of face (u, v) (include/dispmap/surface/baseline.h).

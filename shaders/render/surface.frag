@@ -1,7 +1,8 @@
 #version 450
 // Per-pixel normal (§5.3): D's derivatives at the pixel's (face, u, v) with the interpolated
 // frame s_u, s_v, N (approximate, §5.2) plus the Weingarten term N_u D, N_v D (accurate,
-// §5.1), blended to the limit normal near extraordinary vertices (§5.4). The baseline
+// §5.1); across end-cap patches at extraordinary vertices interpolated from the patch's corners
+// (§5.4, endCapNormal in common.glsl). The baseline
 // decodes its tangent-space normal map instead; the base surface uses N. Built with
 // DM_COLOR_ONLY: the colour output alone (an engine's target without a normal attachment).
 #extension GL_GOOGLE_include_directive : require
@@ -43,7 +44,11 @@ void main() {
             n = dmDisplacedNormalApprox(teSu, teSv, N, d1, fu, fv);
         }
         if (teEv.w > 0.0) {
-            n = dmBlendLimitNormal(n, teEv.xyz, teEv.w);
+            if (P.tess.w != 0.0) {
+                n = endCapNormal(teFace, uv, teRho, accurate, n);
+            } else {
+                n = dmBlendLimitNormal(n, teEv.xyz, teEv.w);
+            }
         }
     } else if (TECHNIQUE == 2) {
         vec3 nts = dmUnpackUnormNormal(textureLod(baselineNormal, baselineUV(teFace, clamp(teUV, vec2(0.0), vec2(1.0))), 0.0).xyz);

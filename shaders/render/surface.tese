@@ -29,13 +29,7 @@ void main() {
     vec2 uv = gl_TessCoord.xy;
 
     // The Far patch: down the face's quadtree (PackedSurface).
-    uint node = faceRoots[face];
-    vec2 q = uv;
-    while ((node & DM_LEAF) == 0u) {
-        int c = dmQuadTreeStep(q);
-        node = nodes[node][c];
-    }
-    uvec4 patchRec = patches[node & ~DM_LEAF];
+    uvec4 patchRec = findPatch(face, uv);
     uvec2 param = patchRec.zw;
     int count = int(patchRec.y);
     bool accurate = HAS_ACCURATE && (NORMALS == 1 || (NORMALS == 2 && faces[face].info.y != 0));

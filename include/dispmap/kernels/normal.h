@@ -130,6 +130,21 @@ DM_TFUNC real dmWeingartenAngleSine(rvec3 au, rvec3 av, rvec3 Nu, rvec3 Nv, real
 DM_TFUNC rvec3 dmBlendLimitNormal(rvec3 n, rvec3 evNormal, real evWeight) {
     return dmSafeNormalize(evNormal + n * (real(1) - evWeight), n);
 }
+
+// §5.4 without the seam: across an end-cap patch at an extraordinary vertex the normal is
+// interpolated bilinearly from normals at the patch's corners (n0 at local (0,0), n1 (1,0),
+// n2 (1,1), n3 (0,1)), st the local coordinates. The caller passes the limit normal at the
+// extraordinary corner and the displaced normal at the others. Two faces of an edge out of
+// the vertex share that edge's two corners, and on the edge only their weights are non-zero,
+// so both sides compute the same normal there (dmBlendLimitNormal instead keeps each face's
+// own derivatives, which Gregory end caps do not make agree across the edge).
+DM_TFUNC rvec3 dmEndCapNormal(rvec3 n0, rvec3 n1, rvec3 n2, rvec3 n3, rvec2 st) {
+    real s = st.x;
+    real t = st.y;
+    rvec3 a = n0 * ((real(1) - s) * (real(1) - t)) + n1 * (s * (real(1) - t));
+    rvec3 b = n2 * (s * t) + n3 * ((real(1) - s) * t);
+    return dmSafeNormalize(a + b, n0);
+}
 // dispmap:glsl-end
 } // namespace dispmap::kern
 #include "dispmap/kernels/prelude_end.h"

@@ -60,6 +60,16 @@ template <typename real> struct BaseSample {
     vec3 p{0}, du{0}, dv{0}, duu{0}, duv{0}, dvv{0};
     vec3 evNormal{0}; ///< sum of (bilinear weight x limit normal) over extraordinary patch corners
     real evWeight = 0;
+    bool endCap = false; ///< an end-cap patch that touches an extraordinary corner holds the point
+};
+
+/// An end-cap patch's corners (BaseSurface::endCapCorners): the samples there, their (u, v)
+/// in the Ptex face (corner c of the patch: 0 at its (0,0), 1 (1,0), 2 (1,1), 3 (0,1)), and
+/// the point's local coordinates in the patch.
+template <typename real> struct EndCapCorners {
+    BaseSample<real> corner[4];
+    glm::vec<2, real> uv[4];
+    glm::vec<2, real> local{0};
 };
 
 class BaseSurface {
@@ -84,6 +94,13 @@ class BaseSurface {
     /// extraordinary corner (see above), and the limit normal there.
     bool isExtraordinaryCorner(int face, int c) const { return evCorner_[checkedFace(face)][static_cast<std::size_t>(c & 3)] != 0; }
     glm::dvec3 cornerNormal(int face, int c) const { return cornerNormal_[checkedFace(face)][static_cast<std::size_t>(c & 3)]; }
+    /// The infinitely sharp features of a Ptex face that the displacement fades out towards
+    /// (kernels/sharp.h): bit i (0..3) its edge i (corner i to i + 1) lies on an interior
+    /// infinitely sharp edge of the mesh; bit 4 + c its corner c is a base vertex on such an
+    /// edge, or an infinitely sharp corner shared by two or more faces. Boundary edges and
+    /// single-face corners need nothing (no second side), semi-sharp creases neither (the
+    /// limit surface is smooth across them once their sharpness has decayed).
+    int sharpMask(int face) const { return sharp_[checkedFace(face)]; }
     /// Throws ArgumentError naming the mesh unless `face` is a Ptex face id and (u, v) a finite
     /// point of [0, 1]^2.
     template <typename real> void checkPoint(int face, real u, real v) const;
@@ -98,6 +115,12 @@ class BaseSurface {
     /// for a face id out of range, a hole, or (u, v) outside [0, 1]^2 or not finite.
     template <typename real> BaseSample<real> evaluate(int face, real u, real v, bool second = true) const;
 
+    /// §5.4: the four corners of the end-cap patch holding (face, u, v), each evaluated (with
+    /// second derivatives) in the patch beyond that corner, for normals interpolated across the
+    /// end cap (DisplacedSurface). False, with `out` untouched, where a regular patch holds the
+    /// point. Throws as evaluate().
+    template <typename real> bool endCapCorners(int face, real u, real v, EndCapCorners<real>& out) const;
+
     /// Animation (Nießner & Loop 2013, §4.1): new positions of the control mesh's vertices
     /// (same count and order as the mesh it was built from) refined through the existing
     /// refiner and the patch table's local-point stencils; the topology, patch table and patch
@@ -111,8 +134,12 @@ class BaseSurface {
     int controlPointCount() const { return refiner_->GetLevel(0).GetNumVertices(); }
 
   private:
+    template <typename real> const Far::PatchTable::PatchHandle& findPatch(int face, real u, real v) const;
+    template <typename real>
+    BaseSample<real> evaluateIn(const Far::PatchTable::PatchHandle& patch, int face, real u, real v, bool second) const;
     void refinePoints(const std::vector<glm::dvec3>& positions);
     void computeCornerNormals();
+    void computeSharpMasks(const ControlMesh& mesh);
     template <typename real> const std::vector<glm::vec<3, real>>& points() const;
     BaseSurfaceOptions options_;
     int faceCount_ = 0;
@@ -125,6 +152,7 @@ class BaseSurface {
     std::vector<std::uint8_t> hole_;
     std::vector<std::array<std::uint8_t, 4>> evCorner_;
     std::vector<std::array<glm::dvec3, 4>> cornerNormal_;
+    std::vector<std::uint8_t> sharp_;
     std::string name_;
     std::uint64_t topologyHash_ = 0;
 };
@@ -195,6 +223,38 @@ inline BaseSurface::BaseSurface(const ControlMesh& mesh, BaseSurfaceOptions opti
                 topology_.kind(topology_.cornerVertex(f, c)) == TileTopology::VertexKind::Constrained ? 1 : 0;
     }
     computeCornerNormals();
+    computeSharpMasks(mesh);
+}
+
+inline void BaseSurface::computeSharpMasks(const ControlMesh& mesh) {
+    const Far::TopologyLevel& L = mesh.base();
+    const int nv = L.GetNumVertices(), ne = L.GetNumEdges();
+    auto sharpEdge = [&](int e) { return L.IsEdgeInfSharp(e) && !L.IsEdgeBoundary(e); };
+    std::vector<std::uint8_t> touched(static_cast<std::size_t>(nv), 0);
+    for (int v = 0; v < nv; ++v) {
+        bool t = L.IsVertexInfSharp(v) && L.GetVertexFaces(v).size() >= 2;
+        for (int e : L.GetVertexEdges(v)) t = t || sharpEdge(e);
+        touched[static_cast<std::size_t>(v)] = t ? 1 : 0;
+    }
+    // The base edge a tile edge lies on (TileTopology's vertex ids: base vertices, then edge
+    // midpoints nv + e, then face centres), or -1 for a spoke inside an N-gon.
+    auto baseEdge = [&](int a, int b) {
+        if (a < nv && b < nv) return static_cast<int>(L.FindEdge(a, b));
+        if (a < nv && b < nv + ne) return b - nv;
+        if (b < nv && a < nv + ne) return a - nv;
+        return -1;
+    };
+    sharp_.assign(static_cast<std::size_t>(faceCount_), 0);
+    for (int f = 0; f < faceCount_; ++f) {
+        int m = 0;
+        for (int c = 0; c < 4; ++c) {
+            const int a = topology_.cornerVertex(f, c), b = topology_.cornerVertex(f, (c + 1) & 3);
+            const int e = baseEdge(a, b);
+            if (e >= 0 && sharpEdge(e)) m |= 1 << c;
+            if (a < nv && touched[static_cast<std::size_t>(a)]) m |= 16 << c;
+        }
+        sharp_[static_cast<std::size_t>(f)] = static_cast<std::uint8_t>(m);
+    }
 }
 
 inline void BaseSurface::refinePoints(const std::vector<glm::dvec3>& positions) {
@@ -256,10 +316,43 @@ template <typename real> void BaseSurface::checkPoint(int face, real u, real v) 
                             " is not in [0, 1]^2");
 }
 
-template <typename real> BaseSample<real> BaseSurface::evaluate(int face, real u, real v, bool second) const {
+template <typename real> const Far::PatchTable::PatchHandle& BaseSurface::findPatch(int face, real u, real v) const {
     checkPoint(face, u, v);
     const Far::PatchTable::PatchHandle* h = map_->FindPatch(face, static_cast<double>(u), static_cast<double>(v));
     if (!h) throw ArgumentError(name_ + ": face " + std::to_string(face) + " is a hole (no surface to evaluate)");
+    return *h;
+}
+
+template <typename real> BaseSample<real> BaseSurface::evaluate(int face, real u, real v, bool second) const {
+    return evaluateIn(findPatch(face, u, v), face, u, v, second);
+}
+
+template <typename real> bool BaseSurface::endCapCorners(int face, real u, real v, EndCapCorners<real>& out) const {
+    const Far::PatchTable::PatchHandle& h = findPatch(face, u, v);
+    const Far::PatchParam param = table_->GetPatchParam(h);
+    if (param.IsRegular()) return false;
+    const real frac = static_cast<real>(param.GetParamFraction());
+    const real u0 = static_cast<real>(param.GetU()) * frac, v0 = static_cast<real>(param.GetV()) * frac;
+    out.local = glm::vec<2, real>((u - u0) / frac, (v - v0) / frac);
+    const glm::dvec2 centre(double(u0) + 0.5 * double(frac), double(v0) + 0.5 * double(frac));
+    for (int c = 0; c < 4; ++c) {
+        const glm::vec<2, real> uv(u0 + (c == 1 || c == 2 ? frac : real(0)), v0 + (c >= 2 ? frac : real(0)));
+        out.uv[c] = uv;
+        // Each corner from the patch beyond it (half a patch outwards, within the face): at the
+        // corners away from the extraordinary vertex that is a regular B-spline patch, whose
+        // derivatives (second ones included) agree with those of the face across the edge; the
+        // end cap's own Gregory derivatives there agree only to first order and, in float,
+        // to the rounding of a 2^-level patch.
+        const glm::dvec2 q = glm::clamp(2.0 * glm::dvec2(uv) - centre, glm::dvec2(0.0), glm::dvec2(1.0));
+        const Far::PatchTable::PatchHandle* beyond = map_->FindPatch(face, q.x, q.y);
+        out.corner[c] = evaluateIn(beyond ? *beyond : h, face, uv.x, uv.y, true);
+    }
+    return true;
+}
+
+template <typename real>
+BaseSample<real> BaseSurface::evaluateIn(const Far::PatchTable::PatchHandle& patch, int face, real u, real v, bool second) const {
+    const Far::PatchTable::PatchHandle* h = &patch;
     real w[20], wu[20], wv[20], wuu[20], wuv[20], wvv[20];
     if (second)
         table_->EvaluateBasis(*h, u, v, w, wu, wv, wuu, wuv, wvv);
@@ -306,6 +399,7 @@ template <typename real> BaseSample<real> BaseSurface::evaluate(int face, real u
             const auto& nrm = cornerNormal_[static_cast<std::size_t>(face)];
             for (int c = 0; c < 4; ++c)
                 if (ev[static_cast<std::size_t>(c)] && touches[c]) {
+                    s.endCap = true;
                     s.evWeight += weight[c];
                     s.evNormal += weight[c] * glm::vec<3, real>(nrm[static_cast<std::size_t>(c)]);
                 }

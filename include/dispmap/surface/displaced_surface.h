@@ -15,7 +15,13 @@
 //    check the promise pointwise on every test mesh, at the finest level. At coarser mips (LOD) D and its gradient change,
 //    and with them the angle (it vanishes where grad D = 0, and grows with |D| and |grad D|);
 //    the tests measured it only falling there, but the promise is stated for the finest level.
-// In end-cap patches at extraordinary corners the normal blends to the limit normal (§5.4).
+// In end-cap patches at extraordinary corners the normal is interpolated from the patch's
+// corners, the limit normal at the extraordinary one (§5.4, dmEndCapNormal): continuous across
+// the edges out of the vertex, where each face's own Gregory derivatives are not.
+//
+// Sharp features: near infinitely sharp creases and corners D fades to 0 (options().sharpBand,
+// kernels/sharp.h), so that f is single-valued where the faces' one-sided normals differ.
+// displacement() and evaluate() return that faded D; the tiles hold D as fitted.
 //
 // D comes from the TileSet with the §4.4 clamp always applied (so that tiles of different
 // sizes agree along their shared edges) and, for level of detail, at a resolution rho (the
@@ -32,6 +38,7 @@
 #include "dispmap/surface/base_surface.h"
 #include "dispmap/kernels/lod.h"
 #include "dispmap/kernels/normal.h"
+#include "dispmap/kernels/sharp.h"
 #include "dispmap/core/tileset.h"
 
 namespace dispmap {
@@ -64,6 +71,16 @@ template <typename real> struct SurfaceSample {
 };
 
 struct DisplacedSurfaceOptions {
+    /// Width of the band (in base-face edge lengths, (0, 1/2]) over which D fades to 0 towards
+    /// infinitely sharp creases and corners, so that the faces on both sides of one meet
+    /// (kernels/sharp.h; docs/design.md, "Sharp creases and corners"). 0 turns the rule off:
+    /// the one-sided normals then tear the surface open along such features.
+    double sharpBand = 0.25;
+    /// §5.4: across end-cap patches at extraordinary vertices, normals interpolated from the
+    /// patch's corners (kernels/normal.h, dmEndCapNormal), continuous across the edges out of
+    /// the vertex. false: the patch's own normal blended towards the limit normal
+    /// (dmBlendLimitNormal), which jumps across those edges (the earlier behaviour).
+    bool endCapNormals = true;
     /// Auto mode: largest accepted angle (radians) between approximate and accurate normal.
     double autoTolerance = 0.01;
     /// Samples per side of the per-face grid the auto bound is taken over.
@@ -83,6 +100,9 @@ class DisplacedSurface {
     const BaseSurface& base() const { return *base_; }
     const TileSet& tiles() const { return *tiles_; }
     const DisplacedSurfaceOptions& options() const { return options_; }
+    /// The disc around a corner touched by a sharp feature where D is 0 before it fades in
+    /// (kernels/sharp.h): the diagonal of the end caps, sqrt(2) 2^-isolation base-face edges.
+    double sharpCapRadius() const { return 1.4142135623730951 * std::ldexp(1.0, -base_->options().isolationLevel); }
 
     /// Per Ptex face: whether auto mode evaluates the accurate normal there.
     const std::vector<std::uint8_t>& autoFaces() const { return autoAccurate_; }
@@ -102,7 +122,14 @@ class DisplacedSurface {
   private:
     /// The checks of displacement() (evaluate leaves (u, v) and holes to BaseSurface).
     template <typename real> void check(int face, real u, real v, real rho, bool uv) const;
+    /// D of the tiles (levels blended), and with the sharp-feature fade applied.
     template <typename real> glm::vec<3, real> displacementAt(int face, real u, real v, real rho) const;
+    template <typename real> glm::vec<3, real> featheredAt(int face, real u, real v, real rho) const;
+    /// N_s and the displaced normal (frame du, dv) of the mode at one base sample.
+    template <typename real>
+    glm::vec<3, real> displacedNormal(const BaseSample<real>& s, glm::vec<2, real> uv, const glm::vec<3, real>& d1, bool accurate,
+                                      glm::vec<3, real>& N, glm::vec<3, real>& du, glm::vec<3, real>& dv) const;
+    template <typename real> glm::vec<3, real> endCapNormal(int face, real u, real v, bool accurate, real rho) const;
     const BaseSurface* base_;
     const TileSet* tiles_;
     DisplacedSurfaceOptions options_;
@@ -121,7 +148,7 @@ template <typename real> void DisplacedSurface::check(int face, real u, real v, 
 
 template <typename real> glm::vec<3, real> DisplacedSurface::displacement(int face, real u, real v, real rho) const {
     check(face, u, v, rho, true);
-    return displacementAt(face, u, v, rho);
+    return featheredAt(face, u, v, rho);
 }
 
 template <typename real> glm::vec<3, real> DisplacedSurface::displacementAt(int face, real u, real v, real rho) const {
@@ -142,6 +169,45 @@ template <typename real> glm::vec<3, real> DisplacedSurface::displacementAt(int 
     return kern::dmBlendMips(coarse, level(mFine), w);
 }
 
+template <typename real> glm::vec<3, real> DisplacedSurface::featheredAt(int face, real u, real v, real rho) const {
+    const glm::vec<3, real> d1 = displacementAt(face, u, v, rho);
+    const int mask = base_->sharpMask(face);
+    if (mask == 0) return d1;
+    return kern::dmSharpFeather(glm::vec<2, real>(u, v), mask, base_->topology().scale(face), static_cast<real>(options_.sharpBand),
+                                static_cast<real>(sharpCapRadius()), d1);
+}
+
+template <typename real>
+glm::vec<3, real> DisplacedSurface::displacedNormal(const BaseSample<real>& s, glm::vec<2, real> uv, const glm::vec<3, real>& d1,
+                                                    bool accurate, glm::vec<3, real>& N, glm::vec<3, real>& du,
+                                                    glm::vec<3, real>& dv) const {
+    const glm::vec<3, real> fallback(real(0), real(0), real(1));
+    N = kern::dmBaseNormal(s.du, s.dv, s.duu, s.duv, s.dvv, uv, fallback);
+    if (accurate) {
+        glm::vec<3, real> Nu, Nv;
+        kern::dmNormalDerivWeingarten(s.du, s.dv, s.duu, s.duv, s.dvv, N, kSinMin<real>, Nu, Nv);
+        return kern::dmDisplacedNormalAccurate(s.du, s.dv, N, Nu, Nv, d1, du, dv);
+    }
+    return kern::dmDisplacedNormalApprox(s.du, s.dv, N, d1, du, dv);
+}
+
+template <typename real>
+glm::vec<3, real> DisplacedSurface::endCapNormal(int face, real u, real v, bool accurate, real rho) const {
+    EndCapCorners<real> ec;
+    base_->endCapCorners(face, u, v, ec);
+    glm::vec<3, real> n[4];
+    for (int c = 0; c < 4; ++c) {
+        if (base_->isExtraordinaryCorner(face, c) && glm::dvec2(ec.uv[c]) == TileTopology::cornerUV(c)) {
+            n[c] = glm::vec<3, real>(base_->cornerNormal(face, c));
+        } else {
+            glm::vec<3, real> N, du, dv;
+            const glm::vec<3, real> d1 = featheredAt(face, ec.uv[c].x, ec.uv[c].y, rho);
+            n[c] = displacedNormal(ec.corner[c], ec.uv[c], d1, accurate, N, du, dv);
+        }
+    }
+    return kern::dmEndCapNormal(n[0], n[1], n[2], n[3], ec.local);
+}
+
 template <typename real>
 SurfaceSample<real> DisplacedSurface::evaluate(int face, real u, real v, NormalMode mode, real rho) const {
     check(face, u, v, rho, false); // before autoAccurate_[face]; BaseSurface checks (u, v) and holes
@@ -155,19 +221,16 @@ SurfaceSample<real> DisplacedSurface::evaluate(int face, real u, real v, NormalM
         if (!(kern::dmDot3(n0, n0) > real(0))) s = base_->evaluate(face, u, v, true);
     }
     SurfaceSample<real> out;
-    const glm::vec<3, real> fallback(real(0), real(0), real(1));
-    const glm::vec<3, real> N = kern::dmBaseNormal(s.du, s.dv, s.duu, s.duv, s.dvv, glm::vec<2, real>(u, v), fallback);
-    const glm::vec<3, real> d1 = displacementAt(face, u, v, rho);
-    glm::vec<3, real> n;
-    if (accurate) {
-        glm::vec<3, real> Nu, Nv;
-        kern::dmNormalDerivWeingarten(s.du, s.dv, s.duu, s.duv, s.dvv, N, kSinMin<real>, Nu, Nv);
-        n = kern::dmDisplacedNormalAccurate(s.du, s.dv, N, Nu, Nv, d1, out.du, out.dv);
-    } else {
-        n = kern::dmDisplacedNormalApprox(s.du, s.dv, N, d1, out.du, out.dv);
-    }
+    const glm::vec<3, real> d1 = featheredAt(face, u, v, rho);
+    glm::vec<3, real> N;
+    const glm::vec<3, real> n = displacedNormal(s, glm::vec<2, real>(u, v), d1, accurate, N, out.du, out.dv);
     out.position = s.p + N * d1.x;
-    out.normal = s.evWeight > real(0) ? kern::dmBlendLimitNormal(n, s.evNormal, s.evWeight) : n;
+    if (s.endCap && options_.endCapNormals)
+        out.normal = endCapNormal(face, u, v, accurate, rho);
+    else if (s.evWeight > real(0))
+        out.normal = kern::dmBlendLimitNormal(n, s.evNormal, s.evWeight);
+    else
+        out.normal = n;
     out.baseNormal = N;
     out.displacement = d1;
     out.accurate = accurate;
@@ -185,6 +248,8 @@ inline DisplacedSurface::DisplacedSurface(const BaseSurface& base, const TileSet
         throw ArgumentError("auto-normal tolerance must be a finite angle >= 0 (radians)");
     if (options.autoSamples < 2 || options.autoSamples > 1024)
         throw ArgumentError("auto-normal samples per side must be in [2, 1024]");
+    if (!(options.sharpBand >= 0.0 && options.sharpBand <= 0.5))
+        throw ArgumentError("sharp-feature band must be in [0, 1/2] base-face edge lengths (0: off)");
     const int n = base.faceCount();
     autoAccurate_.assign(static_cast<std::size_t>(n), 0);
     autoBound_.assign(static_cast<std::size_t>(n), 0.0);
@@ -201,7 +266,7 @@ inline DisplacedSurface::DisplacedSurface(const BaseSurface& base, const TileSet
                 const glm::dvec3 N = kern::dmBaseNormal(s.du, s.dv, s.duu, s.duv, s.dvv, glm::dvec2(u, v), glm::dvec3(0, 0, 1));
                 glm::dvec3 Nu, Nv, au, av;
                 kern::dmNormalDerivWeingarten(s.du, s.dv, s.duu, s.duv, s.dvv, N, kSinMin<double>, Nu, Nv);
-                const glm::dvec3 d1 = displacementAt(f, u, v, kFinest);
+                const glm::dvec3 d1 = featheredAt(f, u, v, kFinest);
                 kern::dmDisplacedNormalApprox(s.du, s.dv, N, d1, au, av);
                 // The largest |D| in the cell around the sample, to first order, either sign.
                 const double absD = std::abs(d1.x) + 0.5 * h * (std::abs(d1.y) + std::abs(d1.z));
