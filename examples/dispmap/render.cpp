@@ -86,18 +86,43 @@ int renderMesoCommand(const RenderArgs& a, const nlohmann::json& j) {
 } // namespace
 
 int renderCommand(const RenderArgs& a) {
+    // The options first: a scene can take seconds to build.
+    if (a.frames < 1 || a.frames > kMaxRenderFrames)
+        throw ArgumentError("--frames " + std::to_string(a.frames) + " is not in 1.." + std::to_string(kMaxRenderFrames) +
+                            " (each frame is drawn in full: the cap keeps a typo from running for hours)");
+    if (a.facesPerDraw < 1 || a.facesPerDraw > kMaxFacesPerDraw)
+        throw ArgumentError("--faces-per-draw " + std::to_string(a.facesPerDraw) + " is not in 1.." + std::to_string(kMaxFacesPerDraw) +
+                            ": lavapipe runs each tessellated draw on one thread in a loop whose time grows faster than the "
+                            "patches in it (docs/lavapipe.md); Spot at factor 64 took 3.4 s a frame at 16 faces per draw, 25 s at "
+                            "32 and 62 s at 64");
+    if (!a.output.empty()) detail::checkOutputPath(a.output, "RGBA image");
+    Scene scene;
     if (!a.scene.empty()) {
-        const std::vector<unsigned char> bytes = detail::readFileBytes(a.scene, "scene file");
-        const nlohmann::json j = nlohmann::json::parse(bytes.begin(), bytes.end(), nullptr, false, true);
-        if (isMesoScene(j)) {
-            if (a.frames < 1) throw ArgumentError("--frames must be >= 1");
-            return renderMesoCommand(a, j);
-        }
+        // One read and one parse (size and nesting limited, scene/scene.h) for both kinds.
+        const nlohmann::json j = loadSceneJson(a.scene);
+        if (isMesoScene(j)) return renderMesoCommand(a, j);
+        scene = parseSceneDocument(j, a.scene, std::filesystem::path(a.scene).parent_path().string());
+    } else {
+        scene = defaultScene();
     }
-    const Scene scene = a.scene.empty() ? defaultScene() : loadScene(a.scene);
-    if (a.frames < 1) throw ArgumentError("--frames must be >= 1");
     SceneSurface s(scene);
     auto ctx = makeContext(a.device, a.validation);
+    if (ctx->isSoftware()) {
+        // Frame time on a CPU device grows with the triangles (docs/lavapipe.md): refused when
+        // one frame would take minutes. The count is the CPU tessellator's at the scene's
+        // uniform factor, or at the maximum factor for the other methods (an upper bound).
+        const SurfaceEffects& e = scene.effects;
+        const double factor = e.tessMethod == TessMethod::Uniform ? std::min(e.tessValue, e.maxFactor) : e.maxFactor;
+        TessellateOptions to;
+        to.maxFactor = e.maxFactor;
+        to.spacing = e.spacing;
+        const std::uint64_t triangles =
+            Tessellator(s.surface, uniformTessFactors(s.base, factor), to).estimate().triangles * (e.wireframe ? 2 : 1);
+        if (triangles > kMaxSoftwareTrianglesPerFrame)
+            throw ArgumentError("scene '" + scene.name + "': up to " + std::to_string(triangles) + " triangles per frame, more than the " +
+                                std::to_string(kMaxSoftwareTrianglesPerFrame) + " a CPU device (" + ctx->deviceName() +
+                                ", 0.4 to 1.5 million a second) draws in a minute or more: lower effects.tessellation.value or .max");
+    }
     vulkan::RendererOptions o;
     o.facesPerDraw = a.facesPerDraw;
     vulkan::SurfaceRenderer r(*ctx, scene, s.surface, s.atlas ? &*s.atlas : nullptr, o);

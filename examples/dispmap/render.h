@@ -1,16 +1,29 @@
 #pragma once
 // `dispmap render` and the renderer's figures: the table of what each effect costs in GPU time
 // against the error it removes (demo and bench), and the "off = not built" comparison.
+#include <cstdint>
 #include <ostream>
 #include <string>
 
 namespace dispmap::figures {
 
+/// Most timed frames of `dispmap render` (each is drawn in full: against typos).
+inline constexpr int kMaxRenderFrames = 1000;
+/// Most faces per draw call of `dispmap render` (lavapipe is its default device): lavapipe runs
+/// one tessellated draw on one thread through a loop whose time grows faster than the patches
+/// in it (docs/lavapipe.md). Spot at factor 64 (252 patches, 1.5 million triangles, 320 x 240),
+/// one frame on a busy 2-core machine: 1.1 s at 1 face per draw, 1.8 s at 4, 3.4 s at 16 (the
+/// default), 25 s at 32, 62 s at 64.
+inline constexpr int kMaxFacesPerDraw = 32;
+/// Most triangles per frame `dispmap render` draws on a CPU device: lavapipe draws 0.4 to 1.5
+/// million a second (Spot above; docs/figures.md's renderer table), so a minute or more.
+inline constexpr std::uint64_t kMaxSoftwareTrianglesPerFrame = 50'000'000;
+
 struct RenderArgs {
     std::string scene;        ///< scene file; empty: the embedded default scene
     std::string output;       ///< PNG to write; empty: none
-    int frames = 3;           ///< timed frames (after one warm-up frame)
-    int facesPerDraw = 16;
+    int frames = 3;           ///< timed frames (after one warm-up frame), 1..kMaxRenderFrames
+    int facesPerDraw = 16;    ///< 1..kMaxFacesPerDraw
     std::string device;       ///< Vulkan device (index or name substring); empty: lavapipe
     bool validation = false;
 };

@@ -10,7 +10,8 @@
 //   f32 quadrics[12 width height], u32 CRC-32 of every byte before it.
 // A load checks sizes before every read, the magic, version, ranges, that G and A are those the
 // sizes imply, that every atlas index in the grid exists, finiteness, and the checksum;
-// failures are FileError naming the file. Writes are atomic.
+// failures are FileError naming the file (as a mesostructure file). Files above
+// kMaxMesoFileBytes are neither written (ArgumentError) nor read. Writes are atomic.
 #include "dispmap/meso/march.h"
 #include "dispmap/io/tile_file.h" // ByteWriter, ByteReader, crc32Of
 
@@ -18,6 +19,9 @@ namespace dispmap {
 
 inline constexpr std::array<unsigned char, 8> kMesoFileMagic = {'D', 'M', 'M', 'E', 'S', 'O', '\0', '\0'};
 inline constexpr std::uint32_t kMesoFileVersion = 1;
+/// Largest mesostructure file read: the renderer uploads each map as one storage buffer, and a
+/// Vulkan device addresses at most 4 GiB in one (maxStorageBufferRange is 32-bit).
+inline constexpr std::uint64_t kMaxMesoFileBytes = std::uint64_t{4} << 30;
 
 inline void saveMesoMaps(const MesoMaps& m, const std::string& path) {
     const MesoHeightField& f = m.field;
@@ -49,19 +53,22 @@ inline void saveMesoMaps(const MesoMaps& m, const std::string& path) {
     for (const glm::vec4& q : m.quadrics.q)
         for (int i = 0; i < 4; ++i) out.f32(q[i]);
     out.u32(detail::crc32Of(out.bytes.data(), out.bytes.size()));
+    if (out.bytes.size() > kMaxMesoFileBytes)
+        throw ArgumentError("saveMesoMaps('" + path + "'): " + std::to_string(out.bytes.size()) + " bytes are more than the " +
+                            std::to_string(kMaxMesoFileBytes) + " a mesostructure file may have (loadMesoMaps would refuse it)");
     detail::writeFileAtomically(path, out.bytes, "mesostructure file");
 }
 
 inline MesoMaps loadMesoMaps(const std::string& path) {
-    const std::vector<unsigned char> bytes = detail::readFileBytes(path, "mesostructure file");
+    const std::vector<unsigned char> bytes = detail::readFileBytes(path, "mesostructure file", kMaxMesoFileBytes);
     const auto corrupt = [&](const std::string& why) { return FileError("mesostructure file '" + path + "': " + why); };
     if (bytes.size() < kMesoFileMagic.size() + 8 || !std::equal(kMesoFileMagic.begin(), kMesoFileMagic.end(), bytes.begin()))
         throw corrupt("not a mesostructure file (bad magic)");
     const std::size_t crcAt = bytes.size() - 4;
-    detail::ByteReader crcIn{bytes, path, crcAt};
+    detail::ByteReader crcIn{bytes, path, crcAt, "mesostructure file"};
     const std::uint32_t stored = crcIn.u32("the checksum");
     if (stored != detail::crc32Of(bytes.data(), crcAt)) throw corrupt("checksum mismatch: the file is corrupted or truncated");
-    detail::ByteReader in{bytes, path, kMesoFileMagic.size()};
+    detail::ByteReader in{bytes, path, kMesoFileMagic.size(), "mesostructure file"};
     if (const std::uint32_t v = in.u32("the version"); v != kMesoFileVersion) throw corrupt("unsupported version " + std::to_string(v));
     MesoMaps m;
     const auto dim = [&](const char* what, std::uint32_t hi) {
@@ -134,6 +141,8 @@ inline MesoMaps loadMesoMaps(const std::string& path) {
     m.quadrics.height = H;
     m.quadrics.q.resize(3 * texels);
     for (std::size_t i = 0; i < m.quadrics.q.size(); ++i) m.quadrics.q[i] = {q[4 * i], q[4 * i + 1], q[4 * i + 2], q[4 * i + 3]};
+    // The reader spans the checksum too: maps that reach into it are short by those bytes.
+    if (in.remaining() < 4) throw corrupt("truncated: the maps run into the checksum");
     if (in.remaining() != 4) throw corrupt(std::to_string(in.remaining() - 4) + " unexpected bytes before the checksum");
     m.denseDdmBytes = c.uncompressedBytes();
     return m;

@@ -185,34 +185,94 @@ inline std::uint32_t bigEndian32(const std::vector<unsigned char>& bytes, std::s
            (std::uint32_t{bytes[at + 2]} << 8) | std::uint32_t{bytes[at + 3]};
 }
 
-/// Throws fail(reason) unless `bytes` start with the PNG signature and, where the first
-/// chunk is IHDR (length, "IHDR", width, height), its size is not zero and at most
-/// kMaxHeightImageSize per side: checked before libpng allocates anything, for clearer
-/// messages than libpng's.
-template <class Fail> void checkPngHeader(const std::vector<unsigned char>& bytes, const Fail& fail) {
+/// Largest PNG file read: the raw pixels of the largest image accepted (kMaxHeightImageSize^2
+/// at 16-bit RGBA, 2 GiB) plus 1/16 for filter bytes and chunk framing. A PNG is never much
+/// larger than its raw pixels: zlib stores incompressible data with 5 bytes per 64 KiB.
+inline constexpr std::uint64_t kMaxPngFileBytes = (std::uint64_t{2} << 30) + (std::uint64_t{1} << 27);
+
+/// What the IHDR chunk says, checked (checkPngHeader).
+struct PngHeader {
+    std::uint32_t width = 0, height = 0;
+    int bitDepth = 0, colorType = 0, channels = 0;
+    /// The bytes of the filtered image data (rows of 1 filter byte + samples, no interlacing):
+    /// what the compressed IDAT data inflates to.
+    std::uint64_t rawBytes = 0;
+};
+
+/// Throws fail(reason) unless `bytes` start with the PNG signature and an IHDR chunk of 13
+/// bytes whose size is not zero and at most maxSide per side, whose bit depth and colour type
+/// go together, and whose IDAT chunks hold at least rawBytes / 2048 bytes (deflate packs at
+/// most ~1032 bytes into one: fewer is a truncated or forged file). All of this is read before
+/// libpng allocates or decodes anything, so that an image above the caller's limit, or a
+/// small file that claims a huge one, is refused at once and costs no memory.
+template <class Fail> PngHeader checkPngHeader(const std::vector<unsigned char>& bytes, const Fail& fail, int maxSide) {
     const std::size_t sigBytes = std::min<std::size_t>(bytes.size(), 8);
     if (sigBytes == 0 || png_sig_cmp(bytes.data(), 0, sigBytes) != 0) throw fail("not a PNG file");
-    if (bytes.size() >= 24 && std::memcmp(bytes.data() + 12, "IHDR", 4) == 0) {
-        const std::uint32_t w = bigEndian32(bytes, 16), h = bigEndian32(bytes, 20);
-        if (w == 0 || h == 0) throw fail("zero size (" + std::to_string(w) + " x " + std::to_string(h) + ")");
-        if (w > kMaxHeightImageSize || h > kMaxHeightImageSize)
-            throw fail("too large (" + std::to_string(w) + " x " + std::to_string(h) + "; at most " +
-                       std::to_string(kMaxHeightImageSize) + " per side)");
+    constexpr std::size_t kHeaderEnd = 8 + 4 + 4 + 13 + 4; // signature, IHDR length, type, data, CRC
+    if (bytes.size() < kHeaderEnd)
+        throw fail("truncated at byte " + std::to_string(bytes.size()) + " (the signature and header take " +
+                   std::to_string(kHeaderEnd) + ")");
+    if (bigEndian32(bytes, 8) != 13 || std::memcmp(bytes.data() + 12, "IHDR", 4) != 0)
+        throw fail("the first chunk is not a 13-byte IHDR header");
+    PngHeader h;
+    h.width = bigEndian32(bytes, 16);
+    h.height = bigEndian32(bytes, 20);
+    h.bitDepth = bytes[24];
+    h.colorType = bytes[25];
+    if (h.width == 0 || h.height == 0)
+        throw fail("zero size (" + std::to_string(h.width) + " x " + std::to_string(h.height) + ")");
+    const auto side = static_cast<std::uint32_t>(std::clamp(maxSide, 1, kMaxHeightImageSize));
+    if (h.width > side || h.height > side)
+        throw fail("too large (" + std::to_string(h.width) + " x " + std::to_string(h.height) + "; at most " +
+                   std::to_string(side) + " per side)");
+    const int d = h.bitDepth;
+    switch (h.colorType) {
+    case 0: h.channels = (d == 1 || d == 2 || d == 4 || d == 8 || d == 16) ? 1 : 0; break;  // grey
+    case 2: h.channels = (d == 8 || d == 16) ? 3 : 0; break;                                  // RGB
+    case 3: h.channels = (d == 1 || d == 2 || d == 4 || d == 8) ? 1 : 0; break;               // palette
+    case 4: h.channels = (d == 8 || d == 16) ? 2 : 0; break;                                  // grey + alpha
+    case 6: h.channels = (d == 8 || d == 16) ? 4 : 0; break;                                  // RGBA
+    default: throw fail("unknown colour type " + std::to_string(h.colorType));
     }
+    if (h.channels == 0)
+        throw fail("bit depth " + std::to_string(d) + " is invalid for colour type " + std::to_string(h.colorType));
+    const std::uint64_t rowBits = std::uint64_t{h.width} * static_cast<std::uint64_t>(h.channels * d);
+    h.rawBytes = std::uint64_t{h.height} * (1 + (rowBits + 7) / 8);
+
+    // The IDAT bytes present, summed over the chunks (framing checks, CRCs and the data itself
+    // are libpng's; a chunk that runs past the end counts with the bytes that are there).
+    std::uint64_t idat = 0;
+    for (std::size_t at = kHeaderEnd; at + 8 <= bytes.size();) {
+        const std::uint64_t length = bigEndian32(bytes, at);
+        const bool isIdat = std::memcmp(bytes.data() + at + 4, "IDAT", 4) == 0;
+        const std::uint64_t present = std::min<std::uint64_t>(length, bytes.size() - at - 8);
+        if (isIdat) idat += present;
+        if (std::memcmp(bytes.data() + at + 4, "IEND", 4) == 0 || present < length) break;
+        at += static_cast<std::size_t>(8 + length + 4);
+    }
+    const std::uint64_t needed = h.rawBytes / 2048;
+    if (idat < needed)
+        throw fail("truncated or corrupt: " + std::to_string(idat) + " bytes of image data for " + std::to_string(h.width) +
+                   " x " + std::to_string(h.height) + " pixels, which need at least " + std::to_string(needed));
+    return h;
 }
 
 } // namespace detail
 
 /// Reads a greyscale height image (see the top of this file for the accepted formats).
-/// Throws FileError naming path and the reason: cannot open, not a PNG, truncated, zero
-/// size, larger than kMaxHeightImageSize per side, or any error libpng reports.
-inline HeightImage readHeightPng(const std::string& path) {
-    const std::vector<unsigned char> bytes = detail::readFileBytes(path, "height image");
+/// maxSide (at most kMaxHeightImageSize) is the caller's limit per side, checked from the
+/// header before anything is decoded; `hint` is appended to that message (what to do instead).
+/// Throws FileError naming path and the reason: cannot open, not a regular file, a file above
+/// kMaxPngFileBytes, not a PNG, truncated, zero size, larger than maxSide per side, or any
+/// error libpng reports.
+inline HeightImage readHeightPng(const std::string& path, int maxSide = kMaxHeightImageSize,
+                                 const std::string& hint = "") {
+    const std::vector<unsigned char> bytes = detail::readFileBytes(path, "height image", detail::kMaxPngFileBytes);
     const auto fail = [&](const std::string& why) {
-        return FileError("height image '" + path + "': " + why);
+        return FileError("height image '" + path + "': " + why + (why.rfind("too large", 0) == 0 ? hint : ""));
     };
 
-    detail::checkPngHeader(bytes, fail);
+    detail::checkPngHeader(bytes, fail, maxSide);
 
     detail::PngIo io;
     io.in = bytes.data();
@@ -220,7 +280,7 @@ inline HeightImage readHeightPng(const std::string& path) {
     detail::PngHandle handle(false, &io);
     if (!handle.png || !handle.info) throw fail("cannot initialise libpng");
     png_set_read_fn(handle.png, &io, detail::pngRead);
-    png_set_user_limits(handle.png, kMaxHeightImageSize, kMaxHeightImageSize);
+    png_set_user_limits(handle.png, kMaxHeightImageSize, kMaxHeightImageSize); // checked above; libpng's own guard too
 
     detail::PngLayout layout;
     if (!detail::pngReadHeader(handle.png, handle.info, &layout)) throw fail(io.message);
@@ -332,12 +392,14 @@ inline void writeRgbaPng(const std::string& path, int width, int height, const s
 
 /// Reads a PNG as 8-bit RGBA: RGB, RGBA, grey (with or without alpha) and palette images of
 /// any bit depth (grey becomes R = G = B, missing alpha 255, 16-bit samples are scaled to 8).
-/// Throws FileError naming path and the reason: cannot open, not a PNG, truncated, zero
-/// size, larger than kMaxHeightImageSize per side, or any error libpng reports.
-inline RgbaImage readRgbaPng(const std::string& path) {
-    const std::vector<unsigned char> bytes = detail::readFileBytes(path, "RGBA image");
+/// maxSide (at most kMaxHeightImageSize) is the caller's limit per side, checked from the
+/// header before anything is decoded. Throws FileError naming path and the reason: cannot
+/// open, not a regular file, a file above kMaxPngFileBytes, not a PNG, truncated, zero size,
+/// larger than maxSide per side, or any error libpng reports.
+inline RgbaImage readRgbaPng(const std::string& path, int maxSide = kMaxHeightImageSize) {
+    const std::vector<unsigned char> bytes = detail::readFileBytes(path, "RGBA image", detail::kMaxPngFileBytes);
     const auto fail = [&](const std::string& why) { return FileError("RGBA image '" + path + "': " + why); };
-    detail::checkPngHeader(bytes, fail);
+    detail::checkPngHeader(bytes, fail, maxSide);
     detail::PngIo io;
     io.in = bytes.data();
     io.inSize = bytes.size();

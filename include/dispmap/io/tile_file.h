@@ -68,6 +68,9 @@ inline constexpr std::array<unsigned char, 8> kTileFileMagic = {'D', 'M', 'T', '
 inline constexpr std::uint32_t kTileFileVersion = 1;
 inline constexpr std::uint32_t kTileFileHeaderBytes = 1 + 4 + 8; // filter, tile count, topology hash
 inline constexpr std::size_t kTileFileRecordBytes = 5;           // k, sizeDifferences[4]
+/// Largest tile file read (or written): the renderers upload the coefficients as one storage
+/// buffer, and a Vulkan device addresses at most 4 GiB in one (maxStorageBufferRange is 32-bit).
+inline constexpr std::uint64_t kMaxTileFileBytes = std::uint64_t{4} << 30;
 
 static_assert(std::numeric_limits<float>::is_iec559 && sizeof(float) == 4,
               "the tile file stores IEEE-754 binary32 floats");
@@ -108,16 +111,17 @@ struct ByteWriter {
 };
 
 // Reads little-endian values from a byte vector; every read first checks that the bytes are
-// there and throws FileError "<path>: truncated at byte <size> (reading <what>)" if not.
+// there and throws FileError "<kind> '<path>': truncated at byte <size> (reading <what>)" if not.
 struct ByteReader {
     const std::vector<unsigned char>& bytes;
     const std::string& path;
     std::size_t pos = 0;
+    const char* kind = "tile file"; ///< what the file is, in messages ("mesostructure file")
 
     std::size_t remaining() const { return bytes.size() - pos; }
     void require(std::uint64_t n, const char* what) const {
         if (n > remaining())
-            throw FileError("tile file '" + path + "': truncated at byte " + std::to_string(bytes.size()) +
+            throw FileError(std::string(kind) + " '" + path + "': truncated at byte " + std::to_string(bytes.size()) +
                             " (reading " + what + ")");
     }
     void skip(std::uint64_t n, const char* what) {
@@ -141,8 +145,8 @@ struct ByteReader {
 
 /// Writes tiles to path in the tile file format above, atomically. Throws ArgumentError
 /// (naming the tile) if a tile has k outside [kMinTileLog2, kMaxTileLog2], a size difference
-/// above k - kMinTileLog2, coefficients.size() != Tile::totalTexels(k) or a NaN/Inf
-/// coefficient (nothing is written then), and FileError if the file cannot be written.
+/// above k - kMinTileLog2, coefficients.size() != Tile::totalTexels(k), a NaN/Inf
+/// coefficient or a file above detail::kMaxTileFileBytes (nothing is written then), and FileError if the file cannot be written.
 inline void saveTiles(const TileSet& tiles, const std::string& path) {
     const auto invalid = [&](std::size_t i, const std::string& why) {
         return ArgumentError("saveTiles('" + path + "'): tile " + std::to_string(i) + ": " + why);
@@ -168,9 +172,13 @@ inline void saveTiles(const TileSet& tiles, const std::string& path) {
         floats += t.coefficients.size();
     }
 
+    const std::uint64_t fileBytes =
+        16 + detail::kTileFileHeaderBytes + detail::kTileFileRecordBytes * std::uint64_t{tiles.tiles.size()} + 4 * std::uint64_t{floats} + 4;
+    if (fileBytes > detail::kMaxTileFileBytes)
+        throw ArgumentError("saveTiles('" + path + "'): " + std::to_string(fileBytes) + " bytes are more than the " +
+                            std::to_string(detail::kMaxTileFileBytes) + " a tile file may have (loadTiles would refuse it)");
     detail::ByteWriter out;
-    out.bytes.reserve(16 + detail::kTileFileHeaderBytes + detail::kTileFileRecordBytes * tiles.tiles.size() +
-                      4 * floats + 4);
+    out.bytes.reserve(static_cast<std::size_t>(fileBytes));
     out.bytes.insert(out.bytes.end(), detail::kTileFileMagic.begin(), detail::kTileFileMagic.end());
     out.u32(detail::kTileFileVersion);
     out.u32(detail::kTileFileHeaderBytes);
@@ -190,11 +198,12 @@ inline void saveTiles(const TileSet& tiles, const std::string& path) {
 }
 
 /// Reads a tile file written by saveTiles; the result is bit for bit what was saved. Throws
-/// FileError naming path and the reason: cannot open, bad magic, unsupported version,
+/// FileError naming path and the reason: cannot open, not a regular file, larger than
+/// detail::kMaxTileFileBytes, bad magic, unsupported version,
 /// truncated (with the byte offset), invalid header, filter, k or size difference, trailing
 /// bytes, checksum mismatch, or a NaN/Inf coefficient.
 inline TileSet loadTiles(const std::string& path) {
-    const std::vector<unsigned char> bytes = detail::readFileBytes(path, "tile file");
+    const std::vector<unsigned char> bytes = detail::readFileBytes(path, "tile file", detail::kMaxTileFileBytes);
     const auto corrupt = [&](const std::string& why) {
         return FileError("tile file '" + path + "': " + why);
     };

@@ -1,6 +1,7 @@
 #pragma once
 // Building what a scene names (scene/scene.h): its control mesh (built-in or OBJ) and its tile
 // set (a saved tile file, a UV-mapped height image or a procedural function).
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -55,7 +56,9 @@ inline ControlMesh sceneMesh(const Scene& scene) {
 
 /// The tile set of `mesh` that `d` describes, its paths ready to open: loaded from the tile
 /// file, or built from the height image or the procedural function with tile sizes 2^k
-/// (mixedTileSizes if mixedSizes) and the mip filter (`dispmap tiles` and sceneTiles).
+/// (mixedTileSizes if mixedSizes) and the mip filter (`dispmap tiles` and sceneTiles). The
+/// scale and offset are checked first (displacementProblem: |offset| + |scale| <=
+/// kMaxDisplacement), before any file is read.
 /// `report` (if given) receives the fit's report when tiles are built. Throws FileError for a
 /// file that cannot be read, ArgumentError naming the field ("displacement.tiles: ...",
 /// "displacement: <builder's reason>") for a tile file of another mesh, an unknown function or
@@ -69,6 +72,7 @@ inline TileSet displacementTiles(const ControlMesh& mesh, const SceneDisplacemen
                                 mesh.description().name + "'");
         return ts;
     }
+    if (const std::optional<DrawProblem> p = displacementProblem(d)) throw ArgumentError(p->key + ": " + p->why);
     if (d.height.empty() && d.function != "waves" && d.function != "zero")
         throw ArgumentError("displacement.function: unknown value '" + d.function + "' (waves, zero)");
     BuildOptions o;

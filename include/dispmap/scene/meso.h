@@ -14,6 +14,8 @@
 // technique's marcher is the only one compiled into the pipeline (specialisation constants).
 // Every key is optional; unknown keys, bad values and missing files are ArgumentError /
 // FileError naming the scene and the key.
+#include <algorithm>
+#include <cstdint>
 #include <filesystem>
 #include <string>
 
@@ -38,6 +40,70 @@ struct MesoSceneDesc {
     MesoTechnique technique;
     bool shadows = false;
 };
+
+/// Largest step counts of a mesostructure scene's marchers ("effects"): the iteration cap of
+/// the distance map and DDM marchers (4 times the 1024 of the table's DDM rows), relief / POM
+/// linear steps (4 per voxel layer at the most layers, 256), and bisections (float has a
+/// 24-bit mantissa: more halve nothing). Every pixel may run them all on the GPU: a typo
+/// (1e9) would hang it.
+inline constexpr int kMaxMesoIterations = 4096;
+inline constexpr int kMaxMesoLinearSteps = 1024;
+inline constexpr int kMaxMesoBinarySteps = 32;
+/// Largest memory the maps of one mesostructure may take while they are built
+/// (mesoBuildBytes): the dense DDM (4 bytes per voxel and cone) is built whole before it is
+/// compressed, and a 4096^2 x 256 field would need 17 GB per cone. 4 GiB fits the machines
+/// dispmap runs on beside everything else.
+inline constexpr std::uint64_t kMaxMesoBuildBytes = std::uint64_t{4} << 30;
+
+/// The peak memory of buildMesoMaps for a width x height x layers field and these options,
+/// estimated from the sizes alone (from above: the compressed DDM counted as large as the
+/// dense one): the dense and compressed DDM, the distance map with its per-layer transforms
+/// on two threads, heights and quadrics.
+inline std::uint64_t mesoBuildBytes(int width, int height, int layers, const MesoMapOptions& o) {
+    const std::uint64_t texels = static_cast<std::uint64_t>(std::max(width, 0)) * static_cast<std::uint64_t>(std::max(height, 0));
+    const std::uint64_t voxels = texels * static_cast<std::uint64_t>(std::max(layers, 0));
+    const std::uint64_t S = static_cast<std::uint64_t>(std::clamp(o.distanceSubsamples, 1, 16));
+    std::uint64_t bytes = 2 * 4 * texels; // the field, and its copy in the maps
+    if (o.distance) bytes += 4 * voxels + 8 * S * S * texels * (1 + 2 * 2); // map; fine heights; 2 threads x 2 transforms
+    if (o.ddm) bytes += 2 * 4 * voxels * static_cast<std::uint64_t>(std::max(o.cones.count(), 1)); // dense + compressed (at most as big)
+    if (o.quadrics) bytes += 48 * texels;
+    return bytes;
+}
+
+/// The peak memory of voxelising a mesh (mesoSolidFromMesh with `sub` sub-voxels per axis) and
+/// building its distance map and the DDM of `cones` (`dispmap meso --mesh`): the sub-voxels,
+/// the per-voxel triangle lists, the distance transforms in double on the sub-voxel grid, the
+/// dense and compressed DDM.
+inline std::uint64_t mesoSolidBuildBytes(int width, int height, int layers, int sub, const ConeSet& cones) {
+    const std::uint64_t voxels = static_cast<std::uint64_t>(std::max(width, 0)) * static_cast<std::uint64_t>(std::max(height, 0)) *
+                                 static_cast<std::uint64_t>(std::max(layers, 0));
+    const std::uint64_t s3 = static_cast<std::uint64_t>(sub) * static_cast<std::uint64_t>(sub) * static_cast<std::uint64_t>(sub);
+    return voxels * (s3 * (1 + 2 * 8) + 24 + 1 + 4 + 2 * 4 * static_cast<std::uint64_t>(std::max(cones.count(), 1)));
+}
+
+/// Why maps of a width x height x layers field cannot be built with these options, or "":
+/// sizes and layers out of range, unsupported cones, a compression block outside 1..32 or not
+/// dividing width, height and layers (with a DDM), distance-map subsamples outside 1..16, or
+/// more than kMaxMesoBuildBytes of memory. Everything buildMesoMaps would throw on, found
+/// before it starts (the maps take seconds to minutes).
+inline std::string mesoBuildProblem(int width, int height, int layers, const MesoMapOptions& o) {
+    try {
+        detail::checkMesoSize("mesostructure", width, height, layers);
+        o.cones.validate();
+    } catch (const ArgumentError& e) {
+        return e.what();
+    }
+    if (o.ddm && (o.block < 1 || o.block > 32 || width % o.block || height % o.block || layers % o.block))
+        return "compression block " + std::to_string(o.block) + " must be in 1..32 and divide the width, height and layers (" +
+               std::to_string(width) + " x " + std::to_string(height) + " x " + std::to_string(layers) + ")";
+    if (o.distance && (o.distanceSubsamples < 1 || o.distanceSubsamples > 16))
+        return "distance map subsamples " + std::to_string(o.distanceSubsamples) + " not in 1..16";
+    if (const std::uint64_t bytes = mesoBuildBytes(width, height, layers, o); bytes > kMaxMesoBuildBytes)
+        return "the maps of " + std::to_string(width) + " x " + std::to_string(height) + " x " + std::to_string(layers) + " voxels (cones " +
+               o.cones.name() + ") would take about " + std::to_string(bytes >> 20) + " MiB while they are built, more than " +
+               std::to_string(kMaxMesoBuildBytes >> 20) + " MiB: fewer texels (size), layers or cones";
+    return {};
+}
 
 /// The procedural height fields of the scenes (voxels): "grating" (walls one texel wide and
 /// one-texel beads) and "waves".
@@ -83,13 +149,26 @@ inline HeightImage downsampleHeightImage(const HeightImage& img, int size) {
 }
 
 namespace detail {
+// A string from the input (a key, a name) for a message, cut to about 80 characters.
+inline std::string mesoExcerpt(const std::string& text) {
+    if (text.size() <= 80) return text;
+    std::size_t n = 77;
+    while (n > 0 && (static_cast<unsigned char>(text[n]) & 0xC0) == 0x80) --n; // not inside a UTF-8 character
+    return text.substr(0, n) + "...";
+}
+// Largest camera coordinate, light component, tile and slab size: they go to the GPU as floats,
+// which square them (as kMaxDrawValue in surface/draw.h).
+inline constexpr double kMaxMesoSceneValue = 1e18;
+// Smallest field of view, degrees (as kMinFovDeg in surface/draw.h).
+inline constexpr double kMinMesoFovDeg = 0.01;
+
 inline void mesoKeys(const nlohmann::json& j, const std::string& scene, const std::string& where, std::initializer_list<const char*> keys) {
     if (!j.is_object()) throw ArgumentError(scene + ": '" + where + "' must be an object");
     for (const auto& [k, v] : j.items()) {
         (void)v;
         bool known = false;
         for (const char* key : keys) known = known || k == key;
-        if (!known) throw ArgumentError(scene + ": unknown key '" + (where.empty() ? k : where + "." + k) + "'");
+        if (!known) throw ArgumentError(scene + ": unknown key '" + (where.empty() ? "" : where + ".") + mesoExcerpt(k) + "'");
     }
 }
 template <class T> T mesoNumber(const nlohmann::json& j, const char* key, T fallback, const std::string& scene, const std::string& where) {
@@ -100,6 +179,9 @@ template <class T> T mesoNumber(const nlohmann::json& j, const char* key, T fall
     if (!std::isfinite(d)) throw ArgumentError(scene + ": '" + where + key + "' is not finite");
     if constexpr (std::is_integral_v<T>) {
         if (d != std::floor(d) || std::abs(d) > 1e9) throw ArgumentError(scene + ": '" + where + key + "' must be an integer");
+    } else {
+        if (std::abs(d) > kMaxMesoSceneValue)
+            throw ArgumentError(scene + ": '" + where + key + "' is beyond +-1e18 (the GPU holds it as a float)");
     }
     return static_cast<T>(d);
 }
@@ -109,40 +191,60 @@ inline glm::dvec3 mesoVec3(const nlohmann::json& j, const char* key, glm::dvec3 
     if (!v.is_array() || v.size() != 3 || !v[0].is_number() || !v[1].is_number() || !v[2].is_number())
         throw ArgumentError(scene + ": '" + where + key + "' must be [x, y, z]");
     const glm::dvec3 r(v[0].get<double>(), v[1].get<double>(), v[2].get<double>());
-    if (!std::isfinite(r.x + r.y + r.z)) throw ArgumentError(scene + ": '" + where + key + "' is not finite");
+    for (int i = 0; i < 3; ++i)
+        if (!(std::abs(r[i]) <= kMaxMesoSceneValue))
+            throw ArgumentError(scene + ": '" + where + key + "' is not finite or beyond +-1e18 (the GPU holds it as a float)");
     return r;
+}
+inline MesoMapOptions mesoSceneMapOptions(const MesoSceneDesc& s) {
+    MesoMapOptions o = mesoMapOptionsFor(s.technique, s.shadows, s.cones);
+    o.block = s.block;
+    return o;
 }
 } // namespace detail
 
 /// Whether a scene file's JSON is a mesostructure scene (it has the "mesostructure" key).
 inline bool isMesoScene(const nlohmann::json& j) { return j.is_object() && j.contains("mesostructure"); }
 
+/// Reads a mesostructure scene (the JSON of parseSceneJson, scene/scene.h). Every value is
+/// checked here, before any map is built: unknown keys, types, ranges (the renderer's and
+/// the map builders': layers, size, block dividing size and layers, cones, depth, the marchers'
+/// step counts up to kMaxMesoIterations / kMaxMesoLinearSteps / kMaxMesoBinarySteps, a camera
+/// above the plane that does not look from its target, a light that is not zero and, with
+/// shadows, above the horizon, the memory of the maps when the size is known). ArgumentError
+/// naming the scene and the key.
 inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& name, const std::string& baseDir) {
     using namespace detail;
     MesoSceneDesc s;
     s.name = name;
+    const auto fail = [&](const std::string& why) { return ArgumentError(name + ": " + why); };
     mesoKeys(j, name, "", {"mesostructure", "camera", "light", "resolution", "tile", "slab", "effects"});
     const nlohmann::json& m = j["mesostructure"];
     mesoKeys(m, name, "mesostructure", {"height", "function", "size", "layers", "depth", "cones", "block"});
     if (m.contains("height")) {
-        if (!m["height"].is_string()) throw ArgumentError(name + ": 'mesostructure.height' must be a file name");
-        const std::filesystem::path p(m["height"].get<std::string>());
+        if (!m["height"].is_string()) throw fail("'mesostructure.height' must be a file name");
+        const std::string& h = m["height"].get_ref<const std::string&>();
+        if (h.empty()) throw fail("'mesostructure.height' is empty");
+        if (h.size() > 4096) throw fail("'mesostructure.height' is a path of " + std::to_string(h.size()) + " characters, longer than 4096");
+        const std::filesystem::path p(h);
         s.heightImage = p.is_absolute() || baseDir.empty() ? p.string() : (std::filesystem::path(baseDir) / p).string();
     }
     if (m.contains("function")) {
-        if (!m["function"].is_string()) throw ArgumentError(name + ": 'mesostructure.function' must be a name");
+        if (!m["function"].is_string()) throw fail("'mesostructure.function' must be a name");
         s.function = m["function"].get<std::string>();
     }
+    if (s.heightImage.empty() && s.function != "grating" && s.function != "waves")
+        throw fail("'mesostructure.function': unknown function '" + mesoExcerpt(s.function) + "' (grating, waves)");
     s.size = mesoNumber(m, "size", s.heightImage.empty() ? 64 : 0, name, "mesostructure.");
     s.layers = mesoNumber(m, "layers", s.layers, name, "mesostructure.");
     s.depth = mesoNumber(m, "depth", s.depth, name, "mesostructure.");
     s.block = mesoNumber(m, "block", s.block, name, "mesostructure.");
     if (m.contains("cones")) {
-        if (!m["cones"].is_string()) throw ArgumentError(name + ": 'mesostructure.cones' must be \"MxN\" or \"isotropic\"");
+        if (!m["cones"].is_string()) throw fail("'mesostructure.cones' must be \"MxN\" or \"isotropic\"");
         try {
-            s.cones = parseConeSet(m["cones"].get<std::string>());
+            s.cones = parseConeSet(mesoExcerpt(m["cones"].get<std::string>()));
         } catch (const ArgumentError& e) {
-            throw ArgumentError(name + ": 'mesostructure.cones': " + e.what());
+            throw fail(std::string("'mesostructure.cones': ") + e.what());
         }
     }
     if (j.contains("camera")) {
@@ -156,15 +258,21 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
     if (j.contains("resolution")) {
         const nlohmann::json& r = j["resolution"];
         if (!r.is_array() || r.size() != 2 || !r[0].is_number_integer() || !r[1].is_number_integer())
-            throw ArgumentError(name + ": 'resolution' must be [width, height]");
-        s.width = r[0].get<int>();
-        s.height = r[1].get<int>();
-        if (s.width < 1 || s.height < 1 || s.width > 4096 || s.height > 4096)
-            throw ArgumentError(name + ": 'resolution' " + std::to_string(s.width) + " x " + std::to_string(s.height) + " is out of range (1 .. 4096)");
+            throw fail("'resolution' must be [width, height]");
+        // As 64-bit integers (huge unsigned ones clamped): 4294967297 must not wrap to 1.
+        const auto side = [](const nlohmann::json& v) -> std::int64_t {
+            if (v.is_number_unsigned()) return static_cast<std::int64_t>(std::min<std::uint64_t>(v.get<std::uint64_t>(), std::uint64_t{1} << 40));
+            return v.get<std::int64_t>();
+        };
+        const std::int64_t w = side(r[0]), h = side(r[1]);
+        if (w < 1 || h < 1 || w > 4096 || h > 4096)
+            throw fail("'resolution' " + std::to_string(w) + " x " + std::to_string(h) + " is out of range (1 .. 4096)");
+        s.width = static_cast<int>(w);
+        s.height = static_cast<int>(h);
     }
     s.tile = mesoNumber(j, "tile", s.tile, name, "");
     s.slab = mesoNumber(j, "slab", s.slab, name, "");
-    if (!(s.tile > 0) || !(s.slab > 0)) throw ArgumentError(name + ": 'tile' and 'slab' must be > 0");
+    if (!(s.tile > 0) || !(s.slab > 0)) throw fail("'tile' and 'slab' must be > 0");
     if (j.contains("effects")) {
         const nlohmann::json& e = j["effects"];
         mesoKeys(e, name, "effects", {"technique", "quadrics", "iterations", "exitRule", "eps", "linear", "binary", "shadows"});
@@ -175,11 +283,11 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
             else if (k == "distance_map") t.method = MesoMethod::DistanceMap;
             else if (k == "relief") t.method = MesoMethod::Relief;
             else if (k == "pom") t.method = MesoMethod::Pom;
-            else throw ArgumentError(name + ": unknown 'effects.technique' '" + k + "' (ddm, distance_map, relief, pom)");
+            else throw fail("unknown 'effects.technique' '" + mesoExcerpt(k) + "' (ddm, distance_map, relief, pom)");
         }
         const auto flag = [&](const char* key, bool fallback) {
             if (!e.contains(key)) return fallback;
-            if (!e[key].is_boolean()) throw ArgumentError(name + ": 'effects." + key + "' must be true or false");
+            if (!e[key].is_boolean()) throw fail(std::string("'effects.") + key + "' must be true or false");
             return e[key].get<bool>();
         };
         t.quadrics = flag("quadrics", t.quadrics);
@@ -190,28 +298,55 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
         t.linear = mesoNumber(e, "linear", t.linear, name, "effects.");
         t.binary = mesoNumber(e, "binary", t.binary, name, "effects.");
         if (t.iterations < 1 || t.linear < 1 || t.binary < 0 || (t.exitRule != 0 && t.exitRule != 1))
-            throw ArgumentError(name + ": 'effects' iterations and linear must be >= 1, binary >= 0, exitRule 0 or 1");
+            throw fail("'effects' iterations and linear must be >= 1, binary >= 0, exitRule 0 or 1");
+        if (t.iterations > kMaxMesoIterations || t.linear > kMaxMesoLinearSteps || t.binary > kMaxMesoBinarySteps)
+            throw fail("'effects' iterations " + std::to_string(t.iterations) + ", linear " + std::to_string(t.linear) + ", binary " +
+                       std::to_string(t.binary) + ": at most " + std::to_string(kMaxMesoIterations) + ", " +
+                       std::to_string(kMaxMesoLinearSteps) + " and " + std::to_string(kMaxMesoBinarySteps) +
+                       " (more steps change no pixel)");
     }
-    if (s.layers < 2 || s.layers > kMaxMesoLayers) throw ArgumentError(name + ": 'mesostructure.layers' out of range (2 .. 256)");
-    if (s.size != 0 && (s.size < 2 || s.size > kMaxMesoSize))
-        throw ArgumentError(name + ": 'mesostructure.size' " + std::to_string(s.size) + " out of range (2 .. " + std::to_string(kMaxMesoSize) + ")");
+    if (s.layers < 2 || s.layers > kMaxMesoLayers) throw fail("'mesostructure.layers' out of range (2 .. 256)");
+    if (s.heightImage.empty() ? (s.size < 2 || s.size > kMaxMesoSize) : (s.size != 0 && (s.size < 2 || s.size > kMaxMesoSize)))
+        throw fail("'mesostructure.size' " + std::to_string(s.size) + " out of range (2 .. " + std::to_string(kMaxMesoSize) + ")" +
+                   (s.heightImage.empty() ? "" : " (or 0: the image's size)"));
+    if (s.depth != -1 && !(s.depth > 0 && s.depth <= s.layers))
+        throw fail("'mesostructure.depth' " + std::to_string(s.depth) + " is not in (0, layers = " + std::to_string(s.layers) + "]");
+    if (s.block < 1 || s.block > 32) throw fail("'mesostructure.block' " + std::to_string(s.block) + " is not in 1..32");
+    // The renderer's rules, here so that no map is built for a scene it would refuse.
+    if (!(s.fov >= kMinMesoFovDeg && s.fov < 180))
+        throw fail("'camera.fov' " + std::to_string(s.fov) + " is not in [0.01, 180) degrees");
+    if (!(s.eye.z > 0)) throw fail("'camera.eye' must be above the plane z = 0 (eye.z > 0)");
+    if (!(glm::length(s.target - s.eye) > 0)) throw fail("'camera.eye' and 'camera.target' are the same point");
+    if (!(glm::length(s.light) > 0)) throw fail("'light' is the zero vector");
+    if (s.shadows && !(s.light.z > 0)) throw fail("'light' must be above the horizon (z > 0) with 'effects.shadows'");
+    if (s.size > 0)
+        if (const std::string why = mesoBuildProblem(s.size, s.size, s.layers, mesoSceneMapOptions(s)); !why.empty())
+            throw fail("'mesostructure': " + why);
     return s;
 }
 
 /// The scene's height field (the image box-filtered to `size`, or the function), and the maps
-/// its effects need (mesoMapOptionsFor): nothing else is built.
+/// its effects need (mesoMapOptionsFor): nothing else is built. Everything the builders would
+/// throw on is checked first (mesoBuildProblem), and an image above kMaxMesoSize without a
+/// `size` to filter it to is refused from its header, before it is decoded.
 inline MesoMaps buildMesoSceneMaps(const MesoSceneDesc& s) {
     MesoHeightField field;
     const double depth = s.depth > 0 ? s.depth : 0.875 * s.layers;
+    const MesoMapOptions o = detail::mesoSceneMapOptions(s);
+    const auto check = [&](int width, int height) {
+        if (const std::string why = mesoBuildProblem(width, height, s.layers, o); !why.empty())
+            throw ArgumentError(s.name + ": 'mesostructure': " + why);
+    };
     if (!s.heightImage.empty()) {
-        HeightImage img = readHeightPng(s.heightImage);
+        HeightImage img = readHeightPng(s.heightImage, s.size > 0 ? kMaxHeightImageSize : kMaxMesoSize,
+                                        " (give 'mesostructure.size' to box-filter it smaller)");
         if (s.size > 0 && s.size != img.width) img = downsampleHeightImage(img, s.size);
+        check(img.width, img.height);
         field = mesoHeightFieldFromImage(img, s.layers, depth);
     } else {
+        check(s.size, s.size);
         field = mesoFunctionField(s.function, s.size, s.layers);
     }
-    MesoMapOptions o = mesoMapOptionsFor(s.technique, s.shadows, s.cones);
-    o.block = s.block;
     return buildMesoMaps(field, o);
 }
 

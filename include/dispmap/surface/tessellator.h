@@ -59,7 +59,8 @@
 //
 // Errors: ArgumentError for factors that are NaN, infinite or <= 0 (naming the vertex), a
 // factor set of another mesh, maxFactor outside [1, 1024] or not finite, a distance constant
-// c that is not finite and > 0.
+// c that is not finite and > 0, and a tessellation whose estimated memory (Tessellator::
+// estimate, from the factors alone) exceeds TessellateOptions::maxBytes (kMaxTessellationBytes).
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -99,11 +100,26 @@ struct TessFactors {
     std::vector<double> values;
 };
 
+/// Largest peak memory of one tessellation (TessellateOptions::maxBytes by default). Memory
+/// grows with the square of the factors: the 45 Ptex faces of catmark_nonquads at factor 1000
+/// are 33 million triangles and ~6 GB. 4 GiB (~22 million triangles) is more than a renderer
+/// draws per frame and fits the machines dispmap runs on, with room for writing the mesh out.
+inline constexpr std::uint64_t kMaxTessellationBytes = std::uint64_t{4} << 30;
+
 struct TessellateOptions {
     NormalMode normals = NormalMode::Approximate;
     Spacing spacing = Spacing::FractionalEven;
     double maxFactor = 64; ///< clamp of tile factors, [1, 1024] (64 is the hardware's limit)
     MipSelection mips = MipSelection::Off;
+    /// tessellate() refuses (ArgumentError) when Tessellator::estimate()'s bytes exceed this.
+    std::uint64_t maxBytes = kMaxTessellationBytes;
+};
+
+/// The size of a tessellation, from its factors alone (Tessellator::estimate).
+struct TessellationSize {
+    std::uint64_t triangles = 0; ///< exact
+    std::uint64_t vertices = 0;  ///< an upper bound (edge points counted by both tiles of an edge)
+    std::uint64_t bytes = 0;     ///< peak memory of tessellate() for these counts (vectors at twice their size)
 };
 
 /// The points of one edge parameterised over [0, 1] for factor T (>= 1): increasing, first 0,
@@ -138,6 +154,11 @@ inline void checkFactor(double f, const std::string& what) {
                             " is invalid: factors must be finite and > 0");
 }
 inline const Far::TopologyLevel& baseLevel(const BaseSurface& base) { return base.refiner().GetLevel(0); }
+// The number of segments edgeSpacing(T, spacing) makes (T in [1, 1e6]), without making them.
+inline std::uint64_t spacingSegments(double T, Spacing spacing) {
+    if (spacing == Spacing::Integer) return static_cast<std::uint64_t>(std::ceil(T));
+    return 2 * static_cast<std::uint64_t>(std::max(0.0, std::ceil(T / 2.0) - 1.0)) + 2;
+}
 } // namespace detail
 
 namespace detail {
@@ -257,7 +278,11 @@ class Tessellator {
     /// tile's own units (a sub-face's is one less than its quad neighbour's at the same texel
     /// spacing). Throws ArgumentError for a face out of range.
     double resolution(int face, double u, double v) const;
-    /// The whole surface (hole faces skipped).
+    /// The triangle and vertex counts and the memory tessellate() will take, counted tile by
+    /// tile from the factors (no vertex is evaluated: microseconds per face).
+    TessellationSize estimate() const;
+    /// The whole surface (hole faces skipped). Throws ArgumentError, before anything is made,
+    /// when estimate().bytes exceeds options().maxBytes.
     TriangleMesh tessellate() const;
 
   private:
@@ -496,9 +521,55 @@ inline void Tessellator::tile(Build& b, int t) const {
     }
 }
 
+inline TessellationSize Tessellator::estimate() const {
+    const BaseSurface& base = surface_->base();
+    const TileTopology& topo = base.topology();
+    TessellationSize out;
+    for (int t = 0; t < topo.tileCount(); ++t) {
+        if (base.isHole(t)) continue;
+        // The counts tile() makes: the segments of each edge (two halves at a T-junction),
+        // the inner grid, and the zippers between them.
+        std::array<std::uint64_t, 4> n{};
+        for (int e = 0; e < 4; ++e) {
+            const int A = topo.cornerVertex(t, e), B = topo.cornerVertex(t, e + 1);
+            const std::vector<TileTopology::Link>& links = topo.links(t, e);
+            if (topo.scale(t) == 0 && links.size() == 2 && links[0].beta != 1.0) {
+                const TileTopology::Link& l = links[0].y0 == 0.0 ? links[0] : links[1];
+                const int s0 = topo.cornerVertex(l.tile, l.edge), s1 = topo.cornerVertex(l.tile, l.edge + 1);
+                const int M = s0 == A ? s1 : s0;
+                n[static_cast<std::size_t>(e)] = detail::spacingSegments(segmentFactor(std::min(A, M), std::max(A, M)), options_.spacing) +
+                                                 detail::spacingSegments(segmentFactor(std::min(M, B), std::max(M, B)), options_.spacing);
+            } else {
+                n[static_cast<std::size_t>(e)] = detail::spacingSegments(segmentFactor(std::min(A, B), std::max(A, B)), options_.spacing);
+            }
+        }
+        const glm::dvec2 inner = innerFactors(t);
+        bool allOne = options_.spacing == Spacing::Integer && inner.x <= 1.0 && inner.y <= 1.0;
+        for (std::uint64_t k : n) allOne = allOne && k == 1;
+        if (allOne) {
+            out.triangles += 2;
+            out.vertices += 4;
+            continue;
+        }
+        const std::uint64_t nu = std::max<std::uint64_t>(detail::spacingSegments(std::max(inner.x, 1.0), options_.spacing), 2);
+        const std::uint64_t nv = std::max<std::uint64_t>(detail::spacingSegments(std::max(inner.y, 1.0), options_.spacing), 2);
+        out.triangles += 2 * (nu - 2) * (nv - 2) + (n[0] + nu - 2) + (n[1] + nv - 2) + (n[2] + nu - 2) + (n[3] + nv - 2);
+        out.vertices += (nu - 1) * (nv - 1) + n[0] + n[1] + n[2] + n[3];
+    }
+    // Per vertex: its pending entry (24 bytes) and the mesh's position, normal, face, uv and
+    // resolution (76); per triangle: indices, face and corner uvs (64). Growing vectors hold up
+    // to twice what they use.
+    out.bytes = 2 * (out.vertices * 24 + out.triangles * 64) + out.vertices * 76;
+    return out;
+}
+
 inline TriangleMesh Tessellator::tessellate() const {
     const BaseSurface& base = surface_->base();
     const TileTopology& topo = base.topology();
+    if (const TessellationSize size = estimate(); size.bytes > options_.maxBytes)
+        throw ArgumentError("tessellation: " + std::to_string(size.triangles) + " triangles and up to " + std::to_string(size.vertices) +
+                            " vertices would take about " + std::to_string(size.bytes >> 20) + " MiB, more than the limit of " +
+                            std::to_string(options_.maxBytes >> 20) + " MiB: lower the factors or the maximum factor");
     Build b;
     b.corner.assign(static_cast<std::size_t>(topo.vertexCount()), -1);
     for (int t = 0; t < topo.tileCount(); ++t)
