@@ -14,6 +14,7 @@
 #include "dispmap/surface/builtin.h"
 #include "dispmap/surface/displaced_surface.h"
 #include "dispmap/scene/build.h"
+#include "dispmap/scene/surface.h"
 #include "dispmap/scene/scene.h"
 
 // Everything of this file in its own namespace: the tests build as a unity build
@@ -58,6 +59,7 @@ void checkSame(const Scene& a, const Scene& b) {
     CHECK(da.k == db.k);
     CHECK(da.mixedSizes == db.mixedSizes);
     CHECK(da.filter == db.filter);
+    CHECK(da.sharpBand == db.sharpBand);
     CHECK(a.camera.eye == b.camera.eye);
     CHECK(a.camera.target == b.camera.target);
     CHECK(a.camera.up == b.camera.up);
@@ -91,7 +93,7 @@ const char* kFullScene = R"({
   // every key, none at its default
   "mesh": "builtin:torus", "isolation": 4,
   "displacement": {"function": "zero", "height": "", "tiles": "", "scale": 0.25, "offset": -0.5, "wrap": true,
-                   "k": 3, "mixedSizes": true, "filter": "bwavelet"},
+                   "k": 3, "mixedSizes": true, "filter": "bwavelet", "sharpBand": 0.125},
   "camera": {"eye": [1, 2, 3], "target": [0.5, 0, -1], "up": [0, 0, 1], "fovY": 55.5, "near": 0.1, "far": 20},
   "lights": [{"direction": [0, 3, 4], "color": [0.5, 0.25, 2]}, {"direction": [-1, 0, 0]}, {}],
   "ambient": 0.3, "albedo": [0.1, 0.2, 0.3], "background": [1, 0.5, 0],
@@ -177,6 +179,8 @@ TEST_CASE("scene: every key parsed, and toJson round-trips", "[scene]") {
     CHECK(s.displacement.k == 3);
     CHECK(s.displacement.mixedSizes);
     CHECK(s.displacement.filter == "bwavelet");
+    CHECK(s.displacement.sharpBand == 0.125);
+    CHECK(SceneSurface::displacedOptions(s).sharpBand == 0.125);
     CHECK(s.camera.eye == glm::dvec3(1, 2, 3));
     CHECK(s.camera.target == glm::dvec3(0.5, 0, -1));
     CHECK(s.camera.up == glm::dvec3(0, 0, 1));
@@ -248,6 +252,8 @@ TEST_CASE("scene: rejected inputs name the scene and the key", "[scene][errors]"
         {R"({"displacement": {"kk": 1}})", "displacement: unknown key 'kk' (known: function, height, tiles,"},
         {R"({"displacement": {"function": "noise"}})", "displacement.function: unknown value 'noise' (waves, zero)"},
         {R"({"displacement": {"filter": "box"}})", "displacement.filter: unknown value 'box' (haar, bwavelet)"},
+        {R"({"displacement": {"sharpBand": 0.6}})", "displacement.sharpBand: 0.6 is not in [0, 0.5]"},
+        {R"({"displacement": {"sharpBand": -0.1}})", "displacement.sharpBand: -0.1 is not in [0, 0.5]"},
         // nlohmann refuses numbers that overflow a double (no infinities from JSON).
         {R"({"displacement": {"scale": 1e999}})", "invalid JSON: [json.exception.out_of_range.406] number overflow"},
         {R"({"displacement": {"offset": -1e999}})", "number overflow parsing '-1e999'"},

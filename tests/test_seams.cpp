@@ -103,12 +103,16 @@ TEST_CASE("seams: the sharp-feature fade against finite differences, and where i
         ++checked;
     }
     CHECK(checked > 3000);
-    for (int e = 0; e < 4; ++e)
+    for (int e = 0; e < 4; ++e) {
         for (double y : {0.0, 0.3, 0.5, 1.0}) {
             const glm::dvec2 p = dmtest::edgePoint(e, y);
             CHECK(kern::dmSharpFeather(p, 1 << e, 0, 0.25, 0.0, D(p)).x == 0.0);
-            CHECK(kern::dmSharpFeather(TileTopology::cornerUV(e) * 0.99 + 0.005, 16 << e, 1, 0.25, 0.02, D(p)).x == 0.0);
         }
+        // Inside the cap disc (0.007 face units from the corner, halved in a sub-face).
+        const glm::dvec2 q = TileTopology::cornerUV(e) * 0.99 + 0.005;
+        CHECK(kern::dmSharpFeather(q, 16 << e, 1, 0.25, 0.02, D(q)).x == 0.0);
+        CHECK(kern::dmSharpFeather(q, 16 << e, 0, 0.25, 0.0, D(q)).x != 0.0);
+    }
     const glm::dvec2 mid(0.5, 0.5);
     CHECK(kern::dmSharpFeather(mid, 255, 0, 0.25, 0.02, D(mid)) == D(mid));       // 0.5 away from every edge
     CHECK(kern::dmSharpFeather(mid, 255, 1, 0.5, 0.0, D(mid)) != D(mid));        // a sub-face measures half
@@ -166,6 +170,34 @@ TEST_CASE("seams: infinitely sharp creases and corners stay closed from both sid
             CHECK(gap > 1e-4);
             tornAtLeast = std::min(tornAtLeast, gap);
         }
+    // A band the cap leaves no room for is narrowed (1/2 - cap, 0.146 at isolation 2) so that the
+    // ramps still end before the N-gon spokes; at isolation 1 the end caps cover half a face and
+    // the surface is refused.
+    {
+        ControlMesh mesh = withSharpFeatures(dmtest::shape("catmark_nonquads"), 3);
+        const double amp = 0.03 * meshExtent(mesh);
+        const ControlMesh copy = mesh;
+        TileSet tiles = buildTiles(mesh, uniformTileSizes(mesh, 3), wavesOf(amp));
+        BaseSurfaceOptions iso2;
+        iso2.isolationLevel = 2;
+        const BaseSurface base2(copy, iso2);
+        DisplacedSurfaceOptions wide;
+        wide.sharpBand = 0.5;
+        const DisplacedSurface s2(base2, tiles, wide);
+        CHECK(s2.sharpBand() == Approx(0.5 - std::sqrt(2.0) / 4).epsilon(1e-12));
+        const SeamReport d = measureSeams<double>(s2);
+        CHECK(d.sharp.positionGap <= 1e-12);
+        CHECK(d.other.positionGap <= 1e-12);
+        CHECK(d.endCap.positionGap <= 1e-12);
+        CHECK(d.other.normalJump <= 1e-3);
+        CHECK(d.endCap.normalJump <= 1e-3);
+        BaseSurfaceOptions iso1;
+        iso1.isolationLevel = 1;
+        const BaseSurface base1(copy, iso1);
+        CHECK_THROWS_WITH(DisplacedSurface(base1, tiles), Catch::Contains("need isolation level 2 or more"));
+        wide.sharpBand = 0;
+        CHECK_NOTHROW(DisplacedSurface(base1, tiles, wide));
+    }
     std::printf("sharp features: %d points on sharp edges, gap %.1e (double) %.1e (float); other edges gap %.1e, normal jump "
                 "%.1e rad; with the rule off the smallest worst gap is %.1e of the extent\n",
                 sharpPoints, worstSharpD, worstSharpF, worstOffGap, worstJump, tornAtLeast);
@@ -178,7 +210,12 @@ TEST_CASE("seams: normals across the end-cap rings of extraordinary vertices, fl
     // two sides are evaluated from different patches, so their float rounding differs: the
     // approximate normal stays within the goal (measured 1e-4 on Spot); the accurate one adds
     // the Weingarten term, whose second derivatives carry 2^(2 level) times the points' float
-    // rounding: measured 1.4e-3 on Spot (regular edges: 5e-4), allowed 3e-3.
+    // rounding: measured 1.9e-3 on Spot (regular edges: 1.1e-3), allowed 5e-3.
+    // Inside the face, across the end cap's outer edges, the approximate normal blends back to
+    // the patch's own, which meets the regular patches' to the rounding of a 1e-9 step (measured
+    // 7e-8 rad on Spot; allowed 1e-5). The accurate one is not checked there: Gregory end caps'
+    // second (pseudo-)derivatives differ from the regular patches' (0.49 rad on Spot, 0.56 with
+    // the earlier blend; docs/design.md, Known limits).
     // The earlier §5.4 blend (endCapNormals = false) must fail the goal (the test can fail).
     struct Case {
         std::string name;
@@ -203,7 +240,8 @@ TEST_CASE("seams: normals across the end-cap rings of extraordinary vertices, fl
             const SeamReport d = measureSeams<double>(s, so), f = measureSeams<float>(s, so);
             REQUIRE(d.endCap.points > 0);
             CHECK(d.endCap.normalJump <= 1e-3);
-            CHECK(f.endCap.normalJump <= (m ? 3e-3 : 1e-3));
+            CHECK(f.endCap.normalJump <= (m ? 5e-3 : 1e-3));
+            if (m == 0) CHECK(d.endCapBoundary.normalJump <= 1e-5);
             worst[m][0] = std::max(worst[m][0], d.endCap.normalJump);
             worst[m][1] = std::max(worst[m][1], f.endCap.normalJump);
         }

@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "dispmap/surface/builtin.h"
 #include "dispmap/surface/tile_builder.h"
 
 namespace dmtest {
@@ -55,41 +56,8 @@ inline std::string gridObj(int n, int m) {
     return s;
 }
 
-/// A fan of n quads around a centre vertex (valence n): ring A of 2n vertices (edge and
-/// face vertices alternating) on a curved, deliberately asymmetric cap. Closed: a band of
-/// quads down to ring B and a second fan (valence n at both poles, valence 3 at the odd
-/// ring vertices). Open: the cap alone, a boundary all round.
-inline std::string fanObj(int n, bool closed) {
-    std::string s;
-    auto vtx = [&](double x, double y, double z) {
-        s += "v " + std::to_string(x) + " " + std::to_string(y) + " " + std::to_string(z) + "\n";
-    };
-    const double pi = 3.141592653589793;
-    vtx(0.05, -0.03, 0.6); // 1: top centre
-    for (int i = 0; i < 2 * n; ++i) {
-        const double a = pi * i / n, r = (i % 2 ? 1.3 : 1.0) * (1.0 + 0.15 * std::cos(a));
-        vtx(r * std::cos(a), r * std::sin(a), 0.25 * std::sin(2 * a) * (i % 2 ? 0.5 : 1.0) + 0.1 * r);
-    }
-    auto A = [&](int i) { return 2 + ((i % (2 * n)) + 2 * n) % (2 * n); };
-    if (closed) {
-        for (int i = 0; i < 2 * n; ++i) {
-            const double a = pi * i / n, r = (i % 2 ? 1.2 : 1.0);
-            vtx(r * std::cos(a), r * std::sin(a), -0.9 - 0.1 * std::cos(a));
-        }
-        vtx(-0.04, 0.02, -1.5); // bottom centre
-    }
-    auto B = [&](int i) { return 2 + 2 * n + ((i % (2 * n)) + 2 * n) % (2 * n); };
-    const int bottom = 2 + 4 * n;
-    auto face = [&](int a, int b, int c, int d) {
-        s += "f " + std::to_string(a) + " " + std::to_string(b) + " " + std::to_string(c) + " " + std::to_string(d) + "\n";
-    };
-    for (int k = 0; k < n; ++k) face(1, A(2 * k), A(2 * k + 1), A(2 * k + 2));
-    if (closed) {
-        for (int i = 0; i < 2 * n; ++i) face(A(i + 1), A(i), B(i), B(i + 1));
-        for (int k = 0; k < n; ++k) face(bottom, B(2 * k + 2), B(2 * k + 1), B(2 * k));
-    }
-    return s;
-}
+/// A fan of n quads around a centre vertex (builtin::fanObj).
+using dispmap::builtin::fanObj;
 
 /// Data that is deliberately discontinuous between faces: the tile format must make D C1
 /// across every edge whatever the samples are.

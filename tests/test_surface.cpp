@@ -1208,8 +1208,9 @@ TEST_CASE("hard cases: tiny, thin, folded, valence 12: finite everywhere, unit n
 
 TEST_CASE("hard cases: zero displacement gives the base normal exactly in both modes", "[surface]") {
     // D = D_u = D_v = 0: f_u = s_u + N_u 0 + N 0 = s_u bit for bit, so both modes compute
-    // exactly dmBaseNormal's normal (or its §5.4 blend in end caps at extraordinary corners)
-    // and f = s.
+    // exactly dmBaseNormal's normal and f = s; in end caps at extraordinary corners (§5.4) the
+    // interpolation of the base normals at the end cap's corners (BaseSurface::endCapCorners,
+    // the limit normal at the extraordinary one) blended back to the point's own.
     for (const char* name : {"spot_control_mesh", "catmark_nonquads", "catmark_xord_boundary"}) {
         CAPTURE(name);
         const ControlMesh mesh = dmtest::shape(name);
@@ -1223,7 +1224,21 @@ TEST_CASE("hard cases: zero displacement gives the base normal exactly in both m
                     const double u = i / 6.0, v = j / 6.0;
                     const BaseSample<double> s = base.evaluate<double>(f, u, v, true);
                     dvec3 N = kern::dmBaseNormal(s.du, s.dv, s.duu, s.duv, s.dvv, glm::dvec2(u, v), dvec3(0, 0, 1));
-                    if (s.evWeight > 0) N = kern::dmBlendLimitNormal(N, s.evNormal, s.evWeight);
+                    if (s.endCap) {
+                        EndCapCorners<double> ec;
+                        REQUIRE(base.endCapCorners(f, u, v, ec));
+                        dvec3 n[4];
+                        int ev = 0;
+                        for (int c = 3; c >= 0; --c) {
+                            const BaseSample<double>& k = ec.corner[c];
+                            n[c] = kern::dmBaseNormal(k.du, k.dv, k.duu, k.duv, k.dvv, ec.uv[c], dvec3(0, 0, 1));
+                            if (base.isExtraordinaryCorner(f, c) && ec.uv[c] == TileTopology::cornerUV(c)) {
+                                n[c] = base.cornerNormal(f, c);
+                                ev = c;
+                            }
+                        }
+                        N = kern::dmEndCapNormal(n[0], n[1], n[2], n[3], ec.local, N, ev);
+                    }
                     for (NormalMode m : {NormalMode::Approximate, NormalMode::Accurate}) {
                         const SurfaceSample<double> d = ds.evaluate<double>(f, u, v, m);
                         if (d.normal != N || d.position != s.p || d.displacement != dvec3(0)) {

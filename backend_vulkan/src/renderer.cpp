@@ -144,7 +144,7 @@ Topology buildTopology(const DisplacedSurface& surface, const BaselineAtlas* atl
             }
         }
         const bool autoAccurate = surface.autoFaces()[static_cast<std::size_t>(f)] != 0;
-        const int sharp = surface.options().sharpBand > 0.0 ? base.sharpMask(f) : 0;
+        const int sharp = surface.sharpBand() > 0.0 ? base.sharpMask(f) : 0;
         g.info = glm::ivec4(topo.scale(f), autoAccurate ? 1 : 0, tBits, sharp);
         g.chart = atlas ? glm::uvec4(atlas->chartOrigins[static_cast<std::size_t>(f)], 0, 0) : glm::uvec4(0);
         if (!base.isHole(f)) t.drawFaces.push_back(static_cast<std::uint32_t>(f));
@@ -259,7 +259,7 @@ struct SurfaceRenderer::Impl {
         p.viewport = glm::vec4(float(width), float(height), float(surface.sharpCapRadius()), 0.0f);
         const SurfaceEffects& e = draw.effects;
         const DisplacedSurfaceOptions& so = surface.options();
-        p.tess = glm::vec4(float(e.tessValue), float(e.maxFactor), float(so.sharpBand), so.endCapNormals ? 1.0f : 0.0f);
+        p.tess = glm::vec4(float(e.tessValue), float(e.maxFactor), float(surface.sharpBand()), so.endCapNormals ? 1.0f : 0.0f);
         p.albedo = glm::vec4(glm::vec3(draw.albedo), float(draw.ambient));
         p.wireColor = glm::vec4(0.05f, 0.05f, 0.05f, 1.0f);
         p.counts = glm::ivec4(static_cast<int>(std::min<std::size_t>(draw.lights.size(), kMaxLights)),

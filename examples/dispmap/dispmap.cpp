@@ -13,9 +13,11 @@
 #include <chrono>
 #include <cmath>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <sstream>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "dispmap/surface/displaced_surface.h"
@@ -36,6 +38,7 @@
 #include "swim.h"
 #include "parity.h"
 #include "render.h"
+#include "seams_table.h"
 
 using namespace dispmap;
 
@@ -86,8 +89,9 @@ void addSourceOptions(CLI::App* cmd, SourceArgs& a) {
     cmd->add_option("--load", a.load, "read a tile file instead (with --mesh: check it matches)");
 }
 
-// Builds (or loads) the tile set of `mesh` that `a` describes (as a scene's displacement).
-TileSet makeTiles(const ControlMesh& mesh, const SourceArgs& a, BuildReport* report) {
+// The displacement `a` describes, as a scene's; --scale and --offset checked (by the scene's
+// rule: |offset| + |scale| <= kMaxDisplacement), named as options.
+SceneDisplacement sceneDisplacement(const SourceArgs& a) {
     SceneDisplacement d;
     d.function = a.function;
     d.height = a.height;
@@ -97,11 +101,18 @@ TileSet makeTiles(const ControlMesh& mesh, const SourceArgs& a, BuildReport* rep
     d.wrap = a.wrap;
     d.k = a.k;
     d.filter = a.filter;
-    return displacementTiles(mesh, d, report);
+    if (const std::optional<DrawProblem> p = displacementProblem(d)) throw ArgumentError("--scale / --offset: " + p->why);
+    return d;
+}
+
+// Builds (or loads) the tile set of `mesh` that `a` describes (as a scene's displacement).
+TileSet makeTiles(const ControlMesh& mesh, const SourceArgs& a, BuildReport* report) {
+    return displacementTiles(mesh, sceneDisplacement(a), report);
 }
 
 ControlMesh loadMesh(const SourceArgs& a, const char* command) {
     if (a.mesh.empty()) throw ArgumentError(std::string(command) + ": give --mesh");
+    (void)sceneDisplacement(a); // the options first: the mesh can take a while to read
     return ControlMesh::fromObjFile(a.mesh);
 }
 
@@ -148,7 +159,8 @@ int tiles(const SourceArgs& a, const std::string& output) {
         return 0;
     }
     if (a.mesh.empty()) throw ArgumentError("tiles: give --mesh (with --height or --function) or --load");
-    ControlMesh mesh = ControlMesh::fromObjFile(a.mesh);
+    if (!output.empty()) detail::checkOutputPath(output, "tile file");
+    ControlMesh mesh = loadMesh(a, "tiles");
     BuildReport rep;
     TileSet ts = makeTiles(mesh, a, &rep);
     figures::printTileStats(std::cout, (a.load.empty() ? "Tiles of " + a.mesh : "Tile file " + a.load) + ":", ts,
@@ -215,6 +227,7 @@ int eval(const EvalArgs& a) {
     if (std::isnan(a.rho)) throw ArgumentError("eval: --rho must be a number");
     if (a.grid < 0 || a.grid > 1024) throw ArgumentError("eval: --grid must be in [0, 1024]");
     if (a.at.empty() && a.grid == 0) throw ArgumentError("eval: give points with --at face,u,v or --grid N");
+    if (!a.output.empty()) detail::checkOutputPath(a.output, "JSON output");
     const LoadedSurface loaded(a.source, a.surface, "eval");
     const BaseSurface& base = loaded.base;
     const DisplacedSurface& ds = loaded.surface;
@@ -264,12 +277,19 @@ int tessellateCommand(const TessellateArgs& a) {
     const bool ply = a.output.size() > 4 && a.output.compare(a.output.size() - 4, 4, ".ply") == 0;
     const bool obj = a.output.size() > 4 && a.output.compare(a.output.size() - 4, 4, ".obj") == 0;
     if (!ply && !obj) throw ArgumentError("tessellate: -o must name a .obj or a .ply file");
+    detail::checkOutputPath(a.output, "mesh file");
     const LoadedSurface loaded(a.source, a.surface, "tessellate");
     const BaseSurface& base = loaded.base;
     const TessFactors factors = a.eye.empty() ? uniformTessFactors(base, a.factor)
                                               : distanceTessFactors(base, parseTriple(a.eye, "--eye x,y,z"), a.distance);
+    // The output grows with the square of the factors: refused before anything is made.
+    const Tessellator tessellator(loaded.surface, factors, a.options);
+    if (const TessellationSize size = tessellator.estimate(); size.bytes > a.options.maxBytes)
+        throw ArgumentError("tessellate: " + std::to_string(size.triangles) + " triangles would take about " +
+                            std::to_string(size.bytes >> 20) + " MiB, more than the " + std::to_string(a.options.maxBytes >> 20) +
+                            " MiB a tessellation may take: lower " + (a.eye.empty() ? "--factor" : "--c") + " or --max-factor");
     const auto t0 = std::chrono::steady_clock::now();
-    const TriangleMesh m = tessellate(loaded.surface, factors, a.options);
+    const TriangleMesh m = tessellator.tessellate();
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     if (ply)
         writePly(m, a.output);
@@ -324,29 +344,73 @@ int mesoCommand(const MesoArgs& a) {
         figures::printMesoTable(std::cout, t);
         return 0;
     }
+    // Every option is checked before anything is read or built: the maps take seconds to
+    // minutes, and a constraint the builders check last (the block size) must not cost them.
+    if (!a.mesh.empty() && !a.height.empty()) throw ArgumentError("dispmap meso: give --height IMAGE or --mesh OBJ, not both");
+    if (a.mesh.empty() && a.height.empty()) throw ArgumentError("dispmap meso: give --height IMAGE or --mesh OBJ (or --table)");
+    if (a.size != 0 && (a.size < 2 || a.size > kMaxMesoSize))
+        throw ArgumentError("dispmap meso: --size " + std::to_string(a.size) + " is out of range (2 .. " + std::to_string(kMaxMesoSize) +
+                            (a.height.empty() ? ")" : "; leave it out for the image's own size)"));
+    if (a.layers < 2 || a.layers > kMaxMesoLayers)
+        throw ArgumentError("dispmap meso: --layers: " + std::to_string(a.layers) + " layers is out of range (2 .. " +
+                            std::to_string(kMaxMesoLayers) + ")");
+    if (a.depth != -1 && !(a.depth > 0 && a.depth <= a.layers))
+        throw ArgumentError("dispmap meso: --depth " + std::to_string(a.depth) + " is not in (0, --layers = " + std::to_string(a.layers) + "]");
+    if (!a.mesh.empty() && a.depth != -1) throw ArgumentError("dispmap meso: --depth applies to --height, not to --mesh");
+    if (a.block < 1 || a.block > 32) throw ArgumentError("dispmap meso: --block " + std::to_string(a.block) + " is not in 1..32");
+    if (!a.output.empty()) detail::checkOutputPath(a.output, "mesostructure file");
+    MesoMapOptions o;
+    o.cones = parseConeSet(a.cones, a.shadow);
+    o.block = a.block;
+    const auto check = [&](int width, int height) {
+        if (const std::string why = mesoBuildProblem(width, height, a.layers, o); !why.empty())
+            throw ArgumentError("dispmap meso: " + why + " (--size, --layers, --block, --cones)");
+    };
     if (!a.mesh.empty()) {
         if (!a.output.empty()) throw ArgumentError("dispmap meso: the mesostructure file holds height-field maps; no -o with --mesh");
         const int size = a.size > 0 ? a.size : 32;
-        const auto t0 = std::chrono::steady_clock::now();
+        const int sub = 2; // mesoSolidFromMesh's sub-voxels per axis
         const TriangleSoup soup = readObjTriangles(a.mesh);
-        const MesoSolid solid = mesoSolidFromMesh(soup.positions, soup.triangles, size, size, a.layers);
+        {
+            // mesoSolidFromMesh's first refusal (x and y scaled onto the tile, z alike), here so
+            // that it comes before the checks below as it did: the voxelisation after them is
+            // the slow part.
+            glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+            for (const glm::dvec3& v : soup.positions) {
+                lo = glm::min(lo, v);
+                hi = glm::max(hi, v);
+            }
+            const glm::dvec3 ext = hi - lo;
+            const double tall = ext.z * std::min(size / ext.x, size / ext.y);
+            if (ext.x > 0 && ext.y > 0 && std::isfinite(tall) && tall > a.layers)
+                throw ArgumentError("dispmap meso: the mesh is " + std::to_string(tall) + " voxels tall, more than " +
+                                    std::to_string(a.layers) + " layers (--layers, --size)");
+        }
+        check(size, size);
+        if (const std::uint64_t bytes = mesoSolidBuildBytes(size, size, a.layers, sub, o.cones); bytes > kMaxMesoBuildBytes)
+            throw ArgumentError("dispmap meso: a mesh voxelised into " + std::to_string(size) + " x " + std::to_string(size) + " x " +
+                                std::to_string(a.layers) + " voxels would take about " + std::to_string(bytes >> 20) +
+                                " MiB while its maps are built, more than " + std::to_string(kMaxMesoBuildBytes >> 20) +
+                                " MiB: lower --size or --layers");
+        const auto t0 = std::chrono::steady_clock::now();
+        const MesoSolid solid = mesoSolidFromMesh(soup.positions, soup.triangles, size, size, a.layers, sub);
         const DistanceMap dm = buildSolidDistanceMap(solid);
-        const ConeSet cones = parseConeSet(a.cones, a.shadow);
-        const DirectionalDistanceMap ddm = buildSolidDdm(solid, cones);
+        const DirectionalDistanceMap ddm = buildSolidDdm(solid, o.cones);
         const CompressedDdm c = compressDdm(ddm, a.block);
         const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         std::cout << "mesh mesostructure " << solid.triangles.size() << " triangles -> " << size << " x " << size << " x " << a.layers
-                  << " voxels (" << 100 * solid.solidShare() << " % solid), cones " << cones.name() << ": distance map "
+                  << " voxels (" << 100 * solid.solidShare() << " % solid), cones " << o.cones.name() << ": distance map "
                   << dm.bytes() / 1024 << " KiB, DDM " << ddm.bytes() / 1024 << " KiB -> grid " << c.grid.size() * 4 / 1024
                   << " KiB + atlas " << c.atlas.size() * 4 / 1024 << " KiB (ratio " << c.ratio() << "), built in " << s << " s\n";
         return 0;
     }
-    if (a.height.empty()) throw ArgumentError("dispmap meso: give --height IMAGE or --mesh OBJ (or --table)");
-    MesoMapOptions o;
-    o.cones = parseConeSet(a.cones, a.shadow);
-    o.block = a.block;
-    HeightImage img = readHeightPng(a.height);
+    if (a.size > 0) check(a.size, a.size);
+    // Without --size the image is the field: at most kMaxMesoSize per side, refused from its
+    // header before it is decoded.
+    HeightImage img = readHeightPng(a.height, a.size > 0 ? kMaxHeightImageSize : kMaxMesoSize,
+                                    " for a mesostructure (give --size to box-filter it smaller)");
     if (a.size > 0) img = downsampleHeightImage(img, a.size);
+    check(img.width, img.height);
     const MesoHeightField hf = mesoHeightFieldFromImage(img, a.layers, a.depth);
     const auto t0 = std::chrono::steady_clock::now();
     const MesoMaps m = buildMesoMaps(hf, o);
@@ -410,9 +474,13 @@ int main(int argc, char** argv) {
     auto* benchCmd = app.add_subcommand("bench", "mip accuracy table and timings (Google Benchmark flags pass through)");
     std::string csv;
     benchCmd->add_option("--csv", csv, "also write the mip table as CSV");
-    std::string normalsCsv, isolationCsv, swimCsv, tessCsv, editCsv;
+    std::string normalsCsv, isolationCsv, swimCsv, tessCsv, editCsv, seamsCsv;
     benchCmd->add_option("--tessellation-csv", tessCsv, "also write the tessellation-factor table as CSV");
     benchCmd->add_option("--edit-csv", editCsv, "also write the edit (re-fit) table as CSV");
+    benchCmd->add_option("--seams-csv", seamsCsv, "also write the seams table as CSV");
+    std::string only;
+    benchCmd->add_option("--only", only, "print only this table, no timings")
+        ->check(CLI::IsMember({"mips", "normals", "isolation", "swim", "tessellation", "edit", "seams", "render"}));
     benchCmd->add_option("--swim-csv", swimCsv, "also write the swimming figure as CSV");
     benchCmd->add_option("--isolation-csv", isolationCsv, "also write the isolation-level table as CSV");
     benchCmd->add_option("--normals-csv", normalsCsv, "also write the normals table as CSV");
@@ -431,8 +499,9 @@ int main(int argc, char** argv) {
                                                     "hardware tessellation, print GPU time, patches, triangles");
     renderCmd->add_option("scene", ra.scene, "scene file (JSON)");
     renderCmd->add_option("-o,--output", ra.output, "write the image (PNG)");
-    renderCmd->add_option("--frames", ra.frames, "timed frames (after one warm-up frame)");
-    renderCmd->add_option("--faces-per-draw", ra.facesPerDraw, "patches per draw call");
+    renderCmd->add_option("--frames", ra.frames, "timed frames (after one warm-up frame), 1..1000");
+    renderCmd->add_option("--faces-per-draw", ra.facesPerDraw,
+                          "patches per draw call, 1..32 (lavapipe slows down sharply on bigger draws; default 16)");
     renderCmd->add_option("--device", ra.device, "Vulkan device: index or name substring (default: lavapipe)");
     renderCmd->add_flag("--validation", ra.validation, "enable the validation layer; any message fails");
     std::string renderCsv, renderImages;
@@ -466,20 +535,21 @@ int main(int argc, char** argv) {
         if (*renderCmd) return figures::renderCommand(ra);
         if (*mesoCmd) return mesoCommand(ma);
         if (*benchCmd) {
-            figures::printMipTable(std::cout, csv);
-            std::cout << "\n";
-            figures::printNormalTable(std::cout, normalsCsv);
-            std::cout << "\n";
-            figures::printIsolationTable(std::cout, isolationCsv);
-            std::cout << "\n";
-            figures::printSwimFigure(std::cout, swimCsv);
-            std::cout << "\n";
-            figures::printTessellationTable(std::cout, tessCsv);
-            std::cout << "\n";
-            figures::printEditTable(std::cout, editCsv);
-            std::cout << "\n";
-            figures::printRenderTable(std::cout, {renderImages, renderCsv, renderFrames, true, ""});
-            std::cout << "\n";
+            // Every table, or the one --only names (then no timings either).
+            auto table = [&](const char* name, auto&& print) {
+                if (!only.empty() && only != name) return;
+                print();
+                std::cout << "\n";
+            };
+            table("mips", [&] { figures::printMipTable(std::cout, csv); });
+            table("normals", [&] { figures::printNormalTable(std::cout, normalsCsv); });
+            table("isolation", [&] { figures::printIsolationTable(std::cout, isolationCsv); });
+            table("swim", [&] { figures::printSwimFigure(std::cout, swimCsv); });
+            table("tessellation", [&] { figures::printTessellationTable(std::cout, tessCsv); });
+            table("edit", [&] { figures::printEditTable(std::cout, editCsv); });
+            table("seams", [&] { figures::printSeamsTable(std::cout, seamsCsv); });
+            table("render", [&] { figures::printRenderTable(std::cout, {renderImages, renderCsv, renderFrames, true, ""}); });
+            if (!only.empty()) return 0;
             return figures::runBenchmarks(benchCmd->remaining());
         }
     } catch (const dispmap::Error& e) {

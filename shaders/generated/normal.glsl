@@ -118,17 +118,37 @@ DM_TFUNC rvec3 dmBlendLimitNormal(rvec3 n, rvec3 evNormal, real evWeight) {
 
 // §5.4 without the seam: across an end-cap patch at an extraordinary vertex the normal is
 // interpolated bilinearly from normals at the patch's corners (n0 at local (0,0), n1 (1,0),
-// n2 (1,1), n3 (0,1)), st the local coordinates. The caller passes the limit normal at the
-// extraordinary corner and the displaced normal at the others. Two faces of an edge out of
-// the vertex share that edge's two corners, and on the edge only their weights are non-zero,
-// so both sides compute the same normal there (dmBlendLimitNormal instead keeps each face's
-// own derivatives, which Gregory end caps do not make agree across the edge).
-DM_TFUNC rvec3 dmEndCapNormal(rvec3 n0, rvec3 n1, rvec3 n2, rvec3 n3, rvec2 st) {
+// n2 (1,1), n3 (0,1)), st the local coordinates, evCorner (0..3) the corner at the vertex. The
+// caller passes the limit normal at the extraordinary corner and the displaced normal at the
+// others. Two faces of an edge out of the vertex share that edge's two corners, and on the edge
+// only their weights are non-zero, so both sides compute the same normal there
+// (dmBlendLimitNormal instead keeps each face's own derivatives, which Gregory end caps do not
+// make agree across the edge). Towards the patch's two outer edges the result blends back to
+// `own`, the patch's own displaced normal, with the weight w = a b / (a b + (1-a)(1-b)), (a, b)
+// the local coordinates seen from the extraordinary corner: 0 on the edges out of the vertex,
+// 1 on the outer edges, so that the normal also meets the regular patches around the end cap
+// (0 where both hold, at the two corners on the edges out of the vertex).
+DM_TFUNC rvec3 dmEndCapNormal(rvec3 n0, rvec3 n1, rvec3 n2, rvec3 n3, rvec2 st, rvec3 own, int evCorner) {
     real s = st.x;
     real t = st.y;
     rvec3 a = n0 * ((real(1) - s) * (real(1) - t)) + n1 * (s * (real(1) - t));
     rvec3 b = n2 * (s * t) + n3 * ((real(1) - s) * t);
-    return dmSafeNormalize(a + b, n0);
+    rvec3 n = dmSafeNormalize(a + b, n0);
+    real x = s;
+    real y = t;
+    if (evCorner == 1 || evCorner == 2) {
+        x = real(1) - s;
+    }
+    if (evCorner >= 2) {
+        y = real(1) - t;
+    }
+    real inner = x * y;
+    real outer = (real(1) - x) * (real(1) - y);
+    real w = real(0);
+    if (inner + outer > real(0)) {
+        w = inner / (inner + outer);
+    }
+    return dmSafeNormalize(n * (real(1) - w) + own * w, n);
 }
 #undef real
 #undef rvec2
@@ -257,17 +277,37 @@ DM_TFUNC rvec3 dmBlendLimitNormal(rvec3 n, rvec3 evNormal, real evWeight) {
 
 // §5.4 without the seam: across an end-cap patch at an extraordinary vertex the normal is
 // interpolated bilinearly from normals at the patch's corners (n0 at local (0,0), n1 (1,0),
-// n2 (1,1), n3 (0,1)), st the local coordinates. The caller passes the limit normal at the
-// extraordinary corner and the displaced normal at the others. Two faces of an edge out of
-// the vertex share that edge's two corners, and on the edge only their weights are non-zero,
-// so both sides compute the same normal there (dmBlendLimitNormal instead keeps each face's
-// own derivatives, which Gregory end caps do not make agree across the edge).
-DM_TFUNC rvec3 dmEndCapNormal(rvec3 n0, rvec3 n1, rvec3 n2, rvec3 n3, rvec2 st) {
+// n2 (1,1), n3 (0,1)), st the local coordinates, evCorner (0..3) the corner at the vertex. The
+// caller passes the limit normal at the extraordinary corner and the displaced normal at the
+// others. Two faces of an edge out of the vertex share that edge's two corners, and on the edge
+// only their weights are non-zero, so both sides compute the same normal there
+// (dmBlendLimitNormal instead keeps each face's own derivatives, which Gregory end caps do not
+// make agree across the edge). Towards the patch's two outer edges the result blends back to
+// `own`, the patch's own displaced normal, with the weight w = a b / (a b + (1-a)(1-b)), (a, b)
+// the local coordinates seen from the extraordinary corner: 0 on the edges out of the vertex,
+// 1 on the outer edges, so that the normal also meets the regular patches around the end cap
+// (0 where both hold, at the two corners on the edges out of the vertex).
+DM_TFUNC rvec3 dmEndCapNormal(rvec3 n0, rvec3 n1, rvec3 n2, rvec3 n3, rvec2 st, rvec3 own, int evCorner) {
     real s = st.x;
     real t = st.y;
     rvec3 a = n0 * ((real(1) - s) * (real(1) - t)) + n1 * (s * (real(1) - t));
     rvec3 b = n2 * (s * t) + n3 * ((real(1) - s) * t);
-    return dmSafeNormalize(a + b, n0);
+    rvec3 n = dmSafeNormalize(a + b, n0);
+    real x = s;
+    real y = t;
+    if (evCorner == 1 || evCorner == 2) {
+        x = real(1) - s;
+    }
+    if (evCorner >= 2) {
+        y = real(1) - t;
+    }
+    real inner = x * y;
+    real outer = (real(1) - x) * (real(1) - y);
+    real w = real(0);
+    if (inner + outer > real(0)) {
+        w = inner / (inner + outer);
+    }
+    return dmSafeNormalize(n * (real(1) - w) + own * w, n);
 }
 #undef real
 #undef rvec2

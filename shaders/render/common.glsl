@@ -137,25 +137,31 @@ void evaluatePatch2(uvec4 patchRec, vec2 uv, out vec3 p, out vec3 su, out vec3 s
     }
 }
 
-// §5.4 (DisplacedSurface::endCapNormal): the normal at face (u, v) of an end-cap patch,
-// interpolated from the displaced normals at the patch's corners and the limit normal at its
-// extraordinary corner. `n` where a regular patch holds (u, v) (an interpolated pixel just
-// outside the end cap).
+// §5.4 (DisplacedSurface::endCapNormal): where an end-cap patch at an extraordinary corner
+// holds face (u, v), the normal interpolated from the displaced normals at the patch's corners
+// (each evaluated in the patch beyond it) and the limit normal at the extraordinary corner,
+// blended back to `n` (the pixel's own displaced normal) towards the patch's outer edges;
+// elsewhere `n`. Decided per pixel from the pixel's own patch, as the CPU decides per point.
 vec3 endCapNormal(int face, vec2 uv, float rho, bool accurate, vec3 n) {
     uvec4 patchRec = findPatch(face, uv);
     if (dmPatchRegular(patchRec.zw)) {
         return n;
     }
+    int last = (1 << dmPatchDomainLevel(patchRec.zw)) - 1;
+    ivec2 offset = dmPatchOffset(patchRec.zw);
     float size = 1.0 / float(1 << dmPatchDomainLevel(patchRec.zw));
-    vec2 origin = vec2(dmPatchOffset(patchRec.zw)) * size;
+    vec2 origin = vec2(offset) * size;
     vec2 centre = origin + vec2(0.5 * size);
+    int evCorner = -1;
     vec3 nc[4];
-    for (int c = 0; c < 4; ++c) {
+    for (int c = 3; c >= 0; --c) {
         vec2 corner = vec2((c == 1 || c == 2) ? 1.0 : 0.0, c >= 2 ? 1.0 : 0.0);
+        bool touches = (c == 1 || c == 2 ? offset.x == last : offset.x == 0) && (c >= 2 ? offset.y == last : offset.y == 0);
         vec2 cuv = origin + corner * size;
         vec4 cn = cornerNormals[face * 4 + c];
-        if (cn.w != 0.0 && cuv == corner) {
+        if (cn.w != 0.0 && touches) {
             nc[c] = cn.xyz;
+            evCorner = c;
         } else {
             vec3 p;
             vec3 su;
@@ -179,7 +185,10 @@ vec3 endCapNormal(int face, vec2 uv, float rho, bool accurate, vec3 n) {
             }
         }
     }
-    return dmEndCapNormal(nc[0], nc[1], nc[2], nc[3], dmPatchLocal(patchRec.zw, uv));
+    if (evCorner < 0) {
+        return n; // an end cap at a feature other than an extraordinary vertex (a dart, a corner)
+    }
+    return dmEndCapNormal(nc[0], nc[1], nc[2], nc[3], dmPatchLocal(patchRec.zw, uv), n, evCorner);
 }
 
 // The baseline atlas coordinate of face (u, v) (include/dispmap/surface/baseline.h).

@@ -43,12 +43,14 @@ void main() {
         } else {
             n = dmDisplacedNormalApprox(teSu, teSv, N, d1, fu, fv);
         }
-        if (teEv.w > 0.0) {
-            if (P.tess.w != 0.0) {
+        if (P.tess.w != 0.0) {
+            // Faces with an extraordinary corner look their pixel's patch up (endCapNormal).
+            if (cornerNormals[teFace * 4].w + cornerNormals[teFace * 4 + 1].w + cornerNormals[teFace * 4 + 2].w +
+                    cornerNormals[teFace * 4 + 3].w > 0.0) {
                 n = endCapNormal(teFace, uv, teRho, accurate, n);
-            } else {
-                n = dmBlendLimitNormal(n, teEv.xyz, teEv.w);
             }
+        } else if (teEv.w > 0.0) {
+            n = dmBlendLimitNormal(n, teEv.xyz, teEv.w);
         }
     } else if (TECHNIQUE == 2) {
         vec3 nts = dmUnpackUnormNormal(textureLod(baselineNormal, baselineUV(teFace, clamp(teUV, vec2(0.0), vec2(1.0))), 0.0).xyz);

@@ -6,7 +6,7 @@
 //
 //   { "mesh": "builtin:box", "isolation": 6,
 //     "displacement": {"function": "waves", "height": "", "tiles": "", "scale": 0.07, "offset": 0,
-//                      "wrap": false, "k": 5, "mixedSizes": false, "filter": "haar"},
+//                      "wrap": false, "k": 5, "mixedSizes": false, "filter": "haar", "sharpBand": 0.25},
 //     "camera": {"eye": [2.6, 2.0, 3.4], "target": [0, 0, 0], "up": [0, 1, 0], "fovY": 40,
 //                "near": 0.05, "far": 100},
 //     "lights": [{"direction": [0.4, 0.8, 0.5], "color": [1, 1, 1]}],
@@ -20,10 +20,15 @@
 // Every key is optional (the defaults are the member initialisers below); comments (// and
 // /* */) are allowed. Everything else is a SceneError naming the scene and the key path
 // (`scene 'x.json': effects.normals: unknown value 'fancy' (approximate, accurate, auto)`):
-// invalid JSON, a wrong type, an unknown key anywhere, a number out of range or not finite
-// (1e999 parses as infinity), a camera whose eye equals its target or whose up is parallel to
-// the view direction, a zero light direction, and a height image together with a tile file.
-// Relative paths (mesh, height, tiles) are resolved against the scene file's directory.
+// invalid JSON (also: nesting deeper than kMaxSceneJsonDepth, a file above kMaxSceneFileBytes),
+// a wrong type, an unknown key anywhere, a number out of range or not finite (1e999 is a parse
+// error), a displacement above kMaxDisplacement, a path longer than kMaxScenePathLength, and a
+// height image together with a tile file. The ranges of the draw (camera, lights, colours,
+// image size, effects) are one rule with the renderers': surfaceDrawProblem (surface/draw.h),
+// e.g. a camera whose eye equals its target, whose up is parallel to the view direction, or
+// whose far / near exceeds kMaxDepthRatio; a zero light direction. Messages quote at most ~80
+// characters of the input. Relative paths (mesh, height, tiles) are resolved against the scene
+// file's directory.
 //
 // Tessellation factors (Nießner & Loop 2013, §6.1; kernels/lod.h): "uniform" uses `value` as
 // the factor; "distance", "edge" and "area" use it as the constant c of dmTessFactorDistance,
@@ -35,6 +40,7 @@
 #include <filesystem>
 #include <initializer_list>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -60,6 +66,21 @@ class SceneError : public ArgumentError {
 /// Largest baseline atlas texels per face edge (baseline.h).
 inline constexpr int kMaxBaselineTexels = 1024;
 
+/// Largest scene file: a scene is a few hundred bytes of keys; 1 MiB leaves room for comments
+/// while the parsed document (nlohmann's DOM takes tens of bytes per value) stays small.
+inline constexpr std::uint64_t kMaxSceneFileBytes = std::uint64_t{1} << 20;
+/// Deepest nesting of arrays and objects in a scene file. A scene nests 4 deep; the limit is
+/// checked on the text before parsing, since nlohmann's serialiser and comparisons recurse
+/// (100,000 nested arrays overflowed the stack).
+inline constexpr int kMaxSceneJsonDepth = 64;
+/// Longest path a scene may name (mesh, height image, tile file): Linux's PATH_MAX.
+inline constexpr std::size_t kMaxScenePathLength = 4096;
+/// Largest |offset| + |scale| of a displacement (the bound of |D|, in mesh units). The tiles
+/// store D in float and the GPU forms cross products of the displaced derivatives (~2^k D
+/// each, k <= 8), whose squared length grows as (2^k D)^4: at 1e6 that is ~1e36, under float's
+/// 3.4e38. A displacement a million times a unit mesh is no surface anyway.
+inline constexpr double kMaxDisplacement = 1e6;
+
 struct SceneDisplacement {
     /// "waves" (builtin::defaultDisplacement times scale / 0.07, so |D| <= scale) or "zero";
     /// used when height and tiles are both empty.
@@ -71,7 +92,23 @@ struct SceneDisplacement {
     int k = 5;            ///< log2 tile size of quads (sub-faces of non-quads get k - 1), 1..kMaxTileLog2
     bool mixedSizes = false; ///< quads get k - (ptex face % 3) (>= 1): mixedTileSizes
     std::string filter = "haar"; ///< mip filter: "haar" | "bwavelet"
+    /// Band (base-face edges, 0..1/2) over which D fades to 0 at infinitely sharp creases and
+    /// corners (DisplacedSurfaceOptions::sharpBand; 0: off, and the creases tear open).
+    double sharpBand = 0.25;
 };
+
+/// Why the displacement's size is out of range (key "displacement.scale"), or none: scale and
+/// offset finite with |offset| + |scale| <= kMaxDisplacement.
+inline std::optional<DrawProblem> displacementProblem(const SceneDisplacement& d) {
+    const double bound = std::abs(d.offset) + std::abs(d.scale);
+    if (!std::isfinite(d.scale)) return DrawProblem{"displacement.scale", "must be finite"};
+    if (!std::isfinite(d.offset)) return DrawProblem{"displacement.offset", "must be finite"};
+    if (!(bound <= kMaxDisplacement))
+        return DrawProblem{"displacement.scale", "|offset| + |scale| = " + detail::drawNumber(bound) + " exceeds " +
+                                                     detail::drawNumber(kMaxDisplacement) +
+                                                     ", the largest displacement the float evaluation keeps finite"};
+    return std::nullopt;
+}
 
 /// A scene: a draw (surface/draw.h: camera, lights, image, effects) plus where the surface
 /// comes from.
@@ -121,14 +158,16 @@ class SceneReader {
     static std::string join(const std::string& path, const char* key) {
         return path.empty() ? std::string(key) : path + "." + key;
     }
+    // The value as JSON, cut to about kExcerpt characters: built piece by piece and stopped
+    // there, so that a large value is never serialised whole (nor a deep one recursed into).
+    static constexpr std::size_t kExcerpt = 80;
     static std::string describe(const Json& j) {
-        std::string s = j.dump();
-        if (s.size() > 40) {
-            s.resize(37);
-            s += "...";
-        }
-        return s;
+        std::string out;
+        excerptTo(j, out, 0);
+        return cut(std::move(out));
     }
+    // A string from the input (a key, an unknown value), cut to about kExcerpt characters.
+    static std::string excerpt(const std::string& s) { return cut(s.size() > kExcerpt + 1 ? s.substr(0, kExcerpt + 1) : s); }
 
     // j must be an object whose keys are all in `known`; `what` is "key" or "effect".
     void object(const Json& j, const std::string& path, std::initializer_list<const char*> known,
@@ -140,7 +179,7 @@ class SceneReader {
             if (ok) continue;
             std::string list;
             for (const char* k : known) list += (list.empty() ? "" : ", ") + std::string(k);
-            fail(path, std::string("unknown ") + what + " '" + it.key() + "' (known: " + list + ")");
+            fail(path, std::string("unknown ") + what + " '" + excerpt(it.key()) + "' (known: " + list + ")");
         }
     }
 
@@ -148,16 +187,6 @@ class SceneReader {
         if (!j.is_number()) fail(path, "expected a number, got " + describe(j));
         const double x = j.get<double>();
         if (!std::isfinite(x)) fail(path, "must be finite");
-        return x;
-    }
-    // A number in [lo, hi] (each end open if the flag says so).
-    double number(const Json& j, const std::string& path, double lo, double hi, bool loOpen = false,
-                  bool hiOpen = false) const {
-        const double x = number(j, path);
-        if (loOpen ? !(x > lo) : !(x >= lo))
-            fail(path, describe(j) + " is out of range (must be " + (loOpen ? "> " : ">= ") + fmt(lo) + ")");
-        if (hiOpen ? !(x < hi) : !(x <= hi))
-            fail(path, describe(j) + " is out of range (must be " + (hiOpen ? "< " : "<= ") + fmt(hi) + ")");
         return x;
     }
     int integer(const Json& j, const std::string& path, int lo, int hi) const {
@@ -176,11 +205,11 @@ class SceneReader {
         if (!j.is_string()) fail(path, "expected a string, got " + describe(j));
         return j.get<std::string>();
     }
-    // Three finite numbers, each in [lo, hi].
-    glm::dvec3 vec3(const Json& j, const std::string& path, double lo = -1e300, double hi = 1e300) const {
+    // Three finite numbers.
+    glm::dvec3 vec3(const Json& j, const std::string& path) const {
         if (!j.is_array() || j.size() != 3) fail(path, "expected an array of 3 numbers, got " + describe(j));
         glm::dvec3 v;
-        for (int i = 0; i < 3; ++i) v[i] = number(j[static_cast<std::size_t>(i)], path + "[" + std::to_string(i) + "]", lo, hi);
+        for (int i = 0; i < 3; ++i) v[i] = number(j[static_cast<std::size_t>(i)], path + "[" + std::to_string(i) + "]");
         return v;
     }
     template <typename E, std::size_t N>
@@ -191,7 +220,7 @@ class SceneReader {
             if (s == c.name) return c.value;
             list += (list.empty() ? "" : ", ") + std::string(c.name);
         }
-        fail(path, "unknown value '" + s + "' (" + list + ")");
+        fail(path, "unknown value '" + excerpt(s) + "' (" + list + ")");
     }
     void oneOf(const std::string& s, const std::string& path, std::initializer_list<const char*> known) const {
         std::string list;
@@ -199,17 +228,82 @@ class SceneReader {
             if (s == k) return;
             list += (list.empty() ? "" : ", ") + std::string(k);
         }
-        fail(path, "unknown value '" + s + "' (" + list + ")");
+        fail(path, "unknown value '" + excerpt(s) + "' (" + list + ")");
+    }
+    // A path: a string of at most kMaxScenePathLength characters.
+    std::string filePath(const Json& j, const std::string& key) const {
+        std::string p = string(j, key);
+        if (p.size() > kMaxScenePathLength)
+            fail(key, "a path of " + std::to_string(p.size()) + " characters, longer than " + std::to_string(kMaxScenePathLength));
+        return p;
     }
 
   private:
-    static std::string fmt(double x) {
-        std::string s = Json(x).dump();
-        if (s.size() > 2 && s.compare(s.size() - 2, 2, ".0") == 0) s.resize(s.size() - 2);
-        return s;
+    static std::string cut(std::string s) {
+        if (s.size() <= kExcerpt) return s;
+        std::size_t n = kExcerpt - 3;
+        while (n > 0 && (static_cast<unsigned char>(s[n]) & 0xC0) == 0x80) --n; // not inside a UTF-8 character
+        s.resize(n);
+        return s + "...";
+    }
+    static void excerptTo(const Json& j, std::string& out, int depth) {
+        const auto dumpString = [&](const std::string& str) {
+            out += Json(str.size() > kExcerpt ? str.substr(0, kExcerpt) : str).dump(-1, ' ', false, Json::error_handler_t::replace);
+        };
+        if (out.size() > kExcerpt) return;
+        if (depth > kMaxSceneJsonDepth) {
+            out += "...";
+        } else if (j.is_array()) {
+            out += '[';
+            for (std::size_t i = 0; i < j.size() && out.size() <= kExcerpt; ++i) {
+                if (i > 0) out += ',';
+                excerptTo(j[i], out, depth + 1);
+            }
+            out += ']';
+        } else if (j.is_object()) {
+            out += '{';
+            bool first = true;
+            for (auto it = j.begin(); it != j.end() && out.size() <= kExcerpt; ++it) {
+                if (!first) out += ',';
+                first = false;
+                dumpString(it.key());
+                out += ':';
+                excerptTo(it.value(), out, depth + 1);
+            }
+            out += '}';
+        } else if (j.is_string()) {
+            dumpString(j.get_ref<const std::string&>());
+        } else {
+            out += j.dump();
+        }
     }
     std::string name_;
 };
+
+// Where a JSON text nests arrays and objects deeper than maxDepth (the byte offset of the
+// bracket that goes too deep), or npos. Brackets inside strings and comments do not count;
+// a malformed text is left for the parser to report.
+inline std::size_t jsonTooDeepAt(std::string_view text, int maxDepth) {
+    int depth = 0;
+    for (std::size_t i = 0; i < text.size(); ++i) {
+        const char c = text[i];
+        if (c == '"') {
+            for (++i; i < text.size() && text[i] != '"'; ++i)
+                if (text[i] == '\\') ++i;
+        } else if (c == '/' && i + 1 < text.size() && text[i + 1] == '/') {
+            while (i < text.size() && text[i] != '\n') ++i;
+        } else if (c == '/' && i + 1 < text.size() && text[i + 1] == '*') {
+            const std::size_t end = text.find("*/", i + 2);
+            if (end == std::string_view::npos) return std::string_view::npos;
+            i = end + 1;
+        } else if (c == '[' || c == '{') {
+            if (++depth > maxDepth) return i;
+        } else if ((c == ']' || c == '}') && depth > 0) {
+            --depth;
+        }
+    }
+    return std::string_view::npos;
+}
 
 } // namespace detail
 
@@ -238,56 +332,85 @@ inline const char* defaultSceneJson() {
 )";
 }
 
-/// Parses a scene from JSON text. `name` names the scene in messages (the file name or
-/// "default"); relative paths will be resolved against `baseDir`. Throws SceneError (see the
-/// top of this file). Files are not opened here (sceneMesh and sceneTiles do that).
-inline Scene parseScene(std::string_view json, const std::string& name, const std::string& baseDir) {
+/// Parses the JSON of a scene file (a surface scene or a mesostructure scene, scene/meso.h):
+/// comments allowed, nesting at most kMaxSceneJsonDepth deep (checked on the text first). Throws
+/// SceneError "scene '<name>': invalid JSON: ..." (the parser's message cut to a few hundred
+/// characters: it may quote the input).
+inline nlohmann::json parseSceneJson(std::string_view text, const std::string& name) {
     using Json = nlohmann::json;
     const detail::SceneReader r(name);
-    Json root;
+    if (const std::size_t at = detail::jsonTooDeepAt(text, kMaxSceneJsonDepth); at != std::string_view::npos)
+        r.fail("", "invalid JSON: arrays and objects nest deeper than " + std::to_string(kMaxSceneJsonDepth) +
+                       " levels (at byte " + std::to_string(at) + ")");
     try {
-        root = Json::parse(json.begin(), json.end(), nullptr, true, /*ignore_comments=*/true);
+        return Json::parse(text.begin(), text.end(), nullptr, true, /*ignore_comments=*/true);
     } catch (const Json::exception& e) {
-        r.fail("", std::string("invalid JSON: ") + e.what());
+        std::string what = e.what();
+        if (what.size() > 300) what = what.substr(0, 297) + "...";
+        r.fail("", "invalid JSON: " + what);
     }
+}
+
+/// Reads a scene file's JSON (parseSceneJson): a regular file of at most kMaxSceneFileBytes.
+/// Throws FileError naming the path if it cannot be read, SceneError for its content.
+inline nlohmann::json loadSceneJson(const std::string& path) {
+    const std::vector<unsigned char> bytes = detail::readFileBytes(path, "scene file", kMaxSceneFileBytes);
+    return parseSceneJson(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()), path);
+}
+
+/// Parses a scene from its JSON document. `name` names the scene in messages (the file name or
+/// "default"); relative paths will be resolved against `baseDir`. Throws SceneError (see the
+/// top of this file). Files are not opened here (sceneMesh and sceneTiles do that).
+inline Scene parseSceneDocument(const nlohmann::json& root, const std::string& name, const std::string& baseDir) {
+    using Json = nlohmann::json;
+    const detail::SceneReader r(name);
     Scene s;
     s.name = name;
     s.baseDir = baseDir;
     r.object(root, "", {"mesh", "isolation", "displacement", "camera", "lights", "ambient", "albedo", "background",
                         "resolution", "baselineTexels", "effects"});
     const auto has = [](const Json& j, const char* key) { return j.contains(key); };
+    // Numbers of the draw are only read here; their ranges are surfaceDrawProblem's (below),
+    // the rule the renderers apply too.
 
     if (has(root, "mesh")) {
-        s.mesh = r.string(root["mesh"], "mesh");
+        s.mesh = r.filePath(root["mesh"], "mesh");
         if (s.mesh.empty()) r.fail("mesh", "empty (give \"builtin:box\", \"builtin:torus\" or an OBJ path)");
         if (s.mesh.rfind("builtin:", 0) == 0) {
             const std::string b = s.mesh.substr(8);
             if (b != "box" && b != "torus")
-                r.fail("mesh", "unknown built-in mesh '" + b + "' (known: " + builtin::builtinMeshNames() + ")");
+                r.fail("mesh", "unknown built-in mesh '" + detail::SceneReader::excerpt(b) + "' (known: " + builtin::builtinMeshNames() + ")");
         }
     }
     if (has(root, "isolation")) s.isolation = r.integer(root["isolation"], "isolation", 1, 10);
 
     if (has(root, "displacement")) {
         const Json& d = root["displacement"];
-        r.object(d, "displacement", {"function", "height", "tiles", "scale", "offset", "wrap", "k", "mixedSizes", "filter"});
+        r.object(d, "displacement",
+                 {"function", "height", "tiles", "scale", "offset", "wrap", "k", "mixedSizes", "filter", "sharpBand"});
         SceneDisplacement& o = s.displacement;
         if (has(d, "function")) {
             o.function = r.string(d["function"], "displacement.function");
             r.oneOf(o.function, "displacement.function", {"waves", "zero"});
         }
-        if (has(d, "height")) o.height = r.string(d["height"], "displacement.height");
-        if (has(d, "tiles")) o.tiles = r.string(d["tiles"], "displacement.tiles");
+        if (has(d, "height")) o.height = r.filePath(d["height"], "displacement.height");
+        if (has(d, "tiles")) o.tiles = r.filePath(d["tiles"], "displacement.tiles");
         if (!o.height.empty() && !o.tiles.empty())
             r.fail("displacement", "give either a height image or a tile file, not both");
         if (has(d, "scale")) o.scale = r.number(d["scale"], "displacement.scale");
         if (has(d, "offset")) o.offset = r.number(d["offset"], "displacement.offset");
+        if (const std::optional<DrawProblem> p = displacementProblem(o)) r.fail(p->key, p->why);
         if (has(d, "wrap")) o.wrap = r.boolean(d["wrap"], "displacement.wrap");
         if (has(d, "k")) o.k = r.integer(d["k"], "displacement.k", kMinTileLog2, kMaxTileLog2);
         if (has(d, "mixedSizes")) o.mixedSizes = r.boolean(d["mixedSizes"], "displacement.mixedSizes");
         if (has(d, "filter")) {
             o.filter = r.string(d["filter"], "displacement.filter");
             r.oneOf(o.filter, "displacement.filter", {"haar", "bwavelet"});
+        }
+        if (has(d, "sharpBand")) {
+            o.sharpBand = r.number(d["sharpBand"], "displacement.sharpBand");
+            if (!(o.sharpBand >= 0.0 && o.sharpBand <= 0.5))
+                r.fail("displacement.sharpBand", detail::drawNumber(o.sharpBand) + " is not in [0, 0.5] (base-face edges; 0: off)");
         }
     }
 
@@ -298,20 +421,9 @@ inline Scene parseScene(std::string_view json, const std::string& name, const st
         if (has(c, "eye")) o.eye = r.vec3(c["eye"], "camera.eye");
         if (has(c, "target")) o.target = r.vec3(c["target"], "camera.target");
         if (has(c, "up")) o.up = r.vec3(c["up"], "camera.up");
-        if (has(c, "fovY")) o.fovYDeg = r.number(c["fovY"], "camera.fovY", 0.0, 180.0, true, true);
-        if (has(c, "near")) o.nearPlane = r.number(c["near"], "camera.near", 0.0, 1e300, true);
+        if (has(c, "fovY")) o.fovYDeg = r.number(c["fovY"], "camera.fovY");
+        if (has(c, "near")) o.nearPlane = r.number(c["near"], "camera.near");
         if (has(c, "far")) o.farPlane = r.number(c["far"], "camera.far");
-    }
-    {
-        const Camera& c = s.camera;
-        const glm::dvec3 view = c.target - c.eye;
-        const double lv = glm::length(view), lu = glm::length(c.up);
-        if (!(lv > 0.0) || !std::isfinite(lv)) r.fail("camera", "eye and target are the same point");
-        if (!(lu > 0.0) || !std::isfinite(lu)) r.fail("camera.up", "is the zero vector");
-        if (!(glm::length(glm::cross(view / lv, c.up / lu)) > 1e-6))
-            r.fail("camera.up", "is parallel to the view direction (target - eye)");
-        if (!(c.farPlane > c.nearPlane))
-            r.fail("camera.far", "must be greater than camera.near (" + std::to_string(c.nearPlane) + ")");
     }
 
     if (has(root, "lights")) {
@@ -325,22 +437,22 @@ inline Scene parseScene(std::string_view json, const std::string& name, const st
             r.object(l[i], path, {"direction", "color"});
             Light light;
             if (has(l[i], "direction")) light.direction = r.vec3(l[i]["direction"], path + ".direction");
-            if (has(l[i], "color")) light.color = r.vec3(l[i]["color"], path + ".color", 0.0, 1e300);
-            const double len = glm::length(light.direction);
-            if (!(len > 0.0) || !std::isfinite(len)) r.fail(path + ".direction", "is the zero vector (or too long)");
+            if (has(l[i], "color")) light.color = r.vec3(l[i]["color"], path + ".color");
             // Already unit length to rounding (as toJson writes it): kept, so that a scene
-            // round-trips bit for bit.
-            if (std::abs(len - 1.0) > 1e-15) light.direction /= len;
+            // round-trips bit for bit. A zero or overlong one is left for the range rule.
+            const double len = glm::length(light.direction);
+            if (len > 0.0 && std::isfinite(len) && std::abs(len - 1.0) > 1e-15) light.direction /= len;
             s.lights.push_back(light);
         }
     }
-    if (has(root, "ambient")) s.ambient = r.number(root["ambient"], "ambient", 0.0, 1e300);
-    if (has(root, "albedo")) s.albedo = r.vec3(root["albedo"], "albedo", 0.0, 1.0);
-    if (has(root, "background")) s.background = r.vec3(root["background"], "background", 0.0, 1.0);
+    if (has(root, "ambient")) s.ambient = r.number(root["ambient"], "ambient");
+    if (has(root, "albedo")) s.albedo = r.vec3(root["albedo"], "albedo");
+    if (has(root, "background")) s.background = r.vec3(root["background"], "background");
     if (has(root, "resolution")) {
         const Json& res = root["resolution"];
         if (!res.is_array() || res.size() != 2)
             r.fail("resolution", "expected [width, height], got " + detail::SceneReader::describe(res));
+        // The range is the draw's (kMaxImageSize), checked here too so that the value fits an int.
         s.width = r.integer(res[0], "resolution[0]", 1, kMaxImageSize);
         s.height = r.integer(res[1], "resolution[1]", 1, kMaxImageSize);
     }
@@ -353,7 +465,7 @@ inline Scene parseScene(std::string_view json, const std::string& name, const st
         SurfaceEffects& o = s.effects;
         if (has(e, "technique")) o.technique = r.choice(e["technique"], "effects.technique", detail::kSceneTechniques);
         if (has(e, "normals")) o.normals = r.choice(e["normals"], "effects.normals", detail::kSceneNormals);
-        if (has(e, "autoTolerance")) o.autoToleranceDeg = r.number(e["autoTolerance"], "effects.autoTolerance", 0.0, 90.0);
+        if (has(e, "autoTolerance")) o.autoToleranceDeg = r.number(e["autoTolerance"], "effects.autoTolerance");
         if (has(e, "lod")) {
             // "seed004": the texel-ratio rule's former name, still read (written as "texelratio").
             const bool formerName = e["lod"].is_string() && e["lod"].get<std::string>() == "seed004";
@@ -365,22 +477,27 @@ inline Scene parseScene(std::string_view json, const std::string& name, const st
             r.object(t, "effects.tessellation", {"method", "value", "max", "spacing"});
             if (has(t, "method"))
                 o.tessMethod = r.choice(t["method"], "effects.tessellation.method", detail::kSceneTessMethods);
-            if (has(t, "value")) o.tessValue = r.number(t["value"], "effects.tessellation.value", 0.0, 1e300, true);
-            if (has(t, "max")) o.maxFactor = r.number(t["max"], "effects.tessellation.max", 1.0, 64.0);
+            if (has(t, "value")) o.tessValue = r.number(t["value"], "effects.tessellation.value");
+            if (has(t, "max")) o.maxFactor = r.number(t["max"], "effects.tessellation.max");
             if (has(t, "spacing"))
                 o.spacing = r.choice(t["spacing"], "effects.tessellation.spacing", detail::kSceneSpacings);
         }
     }
+    // One rule for the scene file and the renderers (surface/draw.h), with the key named.
+    if (const std::optional<DrawProblem> p = surfaceDrawProblem(s)) r.fail(p->key, p->why);
     return s;
 }
 
+/// Parses a scene from JSON text (parseSceneJson, then parseSceneDocument). Throws SceneError.
+inline Scene parseScene(std::string_view json, const std::string& name, const std::string& baseDir) {
+    return parseSceneDocument(parseSceneJson(json, name), name, baseDir);
+}
+
 /// Reads and parses a scene file; relative paths in it resolve against its directory.
-/// Throws FileError naming the path if it cannot be read, SceneError (named by the path) for
-/// its content.
+/// Throws FileError naming the path if it cannot be read (not a regular file, or above
+/// kMaxSceneFileBytes), SceneError (named by the path) for its content.
 inline Scene loadScene(const std::string& path) {
-    const std::vector<unsigned char> bytes = detail::readFileBytes(path, "scene file");
-    const std::string text(bytes.begin(), bytes.end());
-    return parseScene(text, path, std::filesystem::path(path).parent_path().string());
+    return parseSceneDocument(loadSceneJson(path), path, std::filesystem::path(path).parent_path().string());
 }
 
 /// The embedded default scene.
@@ -396,7 +513,8 @@ inline std::string toJson(const Scene& s) {
     const SceneDisplacement& d = s.displacement;
     j["displacement"] = {{"function", d.function}, {"height", d.height}, {"tiles", d.tiles},
                          {"scale", d.scale},       {"offset", d.offset}, {"wrap", d.wrap},
-                         {"k", d.k},               {"mixedSizes", d.mixedSizes}, {"filter", d.filter}};
+                         {"k", d.k},               {"mixedSizes", d.mixedSizes}, {"filter", d.filter},
+                         {"sharpBand", d.sharpBand}};
     const Camera& c = s.camera;
     j["camera"] = {{"eye", v3(c.eye)},       {"target", v3(c.target)}, {"up", v3(c.up)},
                    {"fovY", c.fovYDeg},      {"near", c.nearPlane},    {"far", c.farPlane}};

@@ -45,6 +45,7 @@ struct SceneSurface {
     static DisplacedSurfaceOptions displacedOptions(const Scene& scene) {
         DisplacedSurfaceOptions o;
         o.autoTolerance = scene.effects.autoToleranceDeg * 3.14159265358979323846 / 180.0;
+        o.sharpBand = scene.displacement.sharpBand;
         return o;
     }
 };

@@ -99,7 +99,8 @@ class BaseSurface {
     /// infinitely sharp edge of the mesh; bit 4 + c its corner c is a base vertex on such an
     /// edge, or an infinitely sharp corner shared by two or more faces. Boundary edges and
     /// single-face corners need nothing (no second side), semi-sharp creases neither (the
-    /// limit surface is smooth across them once their sharpness has decayed).
+    /// limit surface is smooth across them once their sharpness has decayed). Throws
+    /// ArgumentError for a face id out of range.
     int sharpMask(int face) const { return sharp_[checkedFace(face)]; }
     /// Throws ArgumentError naming the mesh unless `face` is a Ptex face id and (u, v) a finite
     /// point of [0, 1]^2.
@@ -338,11 +339,13 @@ template <typename real> bool BaseSurface::endCapCorners(int face, real u, real 
     for (int c = 0; c < 4; ++c) {
         const glm::vec<2, real> uv(u0 + (c == 1 || c == 2 ? frac : real(0)), v0 + (c >= 2 ? frac : real(0)));
         out.uv[c] = uv;
-        // Each corner from the patch beyond it (half a patch outwards, within the face): at the
-        // corners away from the extraordinary vertex that is a regular B-spline patch, whose
-        // derivatives (second ones included) agree with those of the face across the edge; the
-        // end cap's own Gregory derivatives there agree only to first order and, in float,
-        // to the rounding of a 2^-level patch.
+        // Each corner from the patch beyond it (half a patch outwards, clamped to the face):
+        // at the corners away from the extraordinary vertex that is, at isolation 2 and more and
+        // away from other features, a regular B-spline patch, whose derivatives (second ones
+        // included) agree with those of the face across the edge; the end cap's own Gregory
+        // derivatives there agree only to first order and, in float, to the rounding of a
+        // 2^-level patch. (Where it is another end cap, or a finer patch of a semi-sharp crease,
+        // the corner is evaluated in that patch: still one value for both faces of the edge.)
         const glm::dvec2 q = glm::clamp(2.0 * glm::dvec2(uv) - centre, glm::dvec2(0.0), glm::dvec2(1.0));
         const Far::PatchTable::PatchHandle* beyond = map_->FindPatch(face, q.x, q.y);
         out.corner[c] = evaluateIn(beyond ? *beyond : h, face, uv.x, uv.y, true);

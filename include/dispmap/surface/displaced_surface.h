@@ -90,8 +90,9 @@ struct DisplacedSurfaceOptions {
 class DisplacedSurface {
   public:
     /// Throws ArgumentError if the tiles do not belong to the surface's mesh (tile count, or the
-    /// topology hash where the tile set has one) or the
-    /// options are out of range (tolerance not finite or < 0, fewer than 2 samples).
+    /// topology hash where the tile set has one) or the options are out of range (tolerance not
+    /// finite or < 0, samples outside [2, 1024], sharp band outside [0, 1/2]), or if the mesh has
+    /// infinitely sharp features, the band is > 0 and the isolation level is 1.
     DisplacedSurface(const BaseSurface& base, const TileSet& tiles, DisplacedSurfaceOptions options = {});
     /// The surface keeps pointers to the base and the tiles: temporaries would dangle.
     DisplacedSurface(BaseSurface&&, const TileSet&, DisplacedSurfaceOptions = {}) = delete;
@@ -103,6 +104,10 @@ class DisplacedSurface {
     /// The disc around a corner touched by a sharp feature where D is 0 before it fades in
     /// (kernels/sharp.h): the diagonal of the end caps, sqrt(2) 2^-isolation base-face edges.
     double sharpCapRadius() const { return 1.4142135623730951 * std::ldexp(1.0, -base_->options().isolationLevel); }
+    /// The band the fade uses: options().sharpBand, at most 1/2 - sharpCapRadius() (a feature's
+    /// ramp must end before it reaches an edge whose other face cannot see that feature: the
+    /// spokes of an N-gon's sub-faces are 1/2 from their vertex), so 0.146 at isolation 2.
+    double sharpBand() const { return sharpBand_; }
 
     /// Per Ptex face: whether auto mode evaluates the accurate normal there.
     const std::vector<std::uint8_t>& autoFaces() const { return autoAccurate_; }
@@ -129,10 +134,12 @@ class DisplacedSurface {
     template <typename real>
     glm::vec<3, real> displacedNormal(const BaseSample<real>& s, glm::vec<2, real> uv, const glm::vec<3, real>& d1, bool accurate,
                                       glm::vec<3, real>& N, glm::vec<3, real>& du, glm::vec<3, real>& dv) const;
-    template <typename real> glm::vec<3, real> endCapNormal(int face, real u, real v, bool accurate, real rho) const;
+    template <typename real>
+    glm::vec<3, real> endCapNormal(int face, real u, real v, bool accurate, real rho, const glm::vec<3, real>& own) const;
     const BaseSurface* base_;
     const TileSet* tiles_;
     DisplacedSurfaceOptions options_;
+    double sharpBand_ = 0;
     std::vector<std::uint8_t> autoAccurate_;
     std::vector<double> autoBound_;
     int autoCount_ = 0;
@@ -173,7 +180,7 @@ template <typename real> glm::vec<3, real> DisplacedSurface::featheredAt(int fac
     const glm::vec<3, real> d1 = displacementAt(face, u, v, rho);
     const int mask = base_->sharpMask(face);
     if (mask == 0) return d1;
-    return kern::dmSharpFeather(glm::vec<2, real>(u, v), mask, base_->topology().scale(face), static_cast<real>(options_.sharpBand),
+    return kern::dmSharpFeather(glm::vec<2, real>(u, v), mask, base_->topology().scale(face), static_cast<real>(sharpBand_),
                                 static_cast<real>(sharpCapRadius()), d1);
 }
 
@@ -192,20 +199,22 @@ glm::vec<3, real> DisplacedSurface::displacedNormal(const BaseSample<real>& s, g
 }
 
 template <typename real>
-glm::vec<3, real> DisplacedSurface::endCapNormal(int face, real u, real v, bool accurate, real rho) const {
+glm::vec<3, real> DisplacedSurface::endCapNormal(int face, real u, real v, bool accurate, real rho, const glm::vec<3, real>& own) const {
     EndCapCorners<real> ec;
     base_->endCapCorners(face, u, v, ec);
     glm::vec<3, real> n[4];
-    for (int c = 0; c < 4; ++c) {
+    int evCorner = 0;
+    for (int c = 3; c >= 0; --c) {
         if (base_->isExtraordinaryCorner(face, c) && glm::dvec2(ec.uv[c]) == TileTopology::cornerUV(c)) {
             n[c] = glm::vec<3, real>(base_->cornerNormal(face, c));
+            evCorner = c;
         } else {
             glm::vec<3, real> N, du, dv;
             const glm::vec<3, real> d1 = featheredAt(face, ec.uv[c].x, ec.uv[c].y, rho);
             n[c] = displacedNormal(ec.corner[c], ec.uv[c], d1, accurate, N, du, dv);
         }
     }
-    return kern::dmEndCapNormal(n[0], n[1], n[2], n[3], ec.local);
+    return kern::dmEndCapNormal(n[0], n[1], n[2], n[3], ec.local, own, evCorner);
 }
 
 template <typename real>
@@ -226,7 +235,7 @@ SurfaceSample<real> DisplacedSurface::evaluate(int face, real u, real v, NormalM
     const glm::vec<3, real> n = displacedNormal(s, glm::vec<2, real>(u, v), d1, accurate, N, out.du, out.dv);
     out.position = s.p + N * d1.x;
     if (s.endCap && options_.endCapNormals)
-        out.normal = endCapNormal(face, u, v, accurate, rho);
+        out.normal = endCapNormal(face, u, v, accurate, rho, n);
     else if (s.evWeight > real(0))
         out.normal = kern::dmBlendLimitNormal(n, s.evNormal, s.evWeight);
     else
@@ -250,6 +259,15 @@ inline DisplacedSurface::DisplacedSurface(const BaseSurface& base, const TileSet
         throw ArgumentError("auto-normal samples per side must be in [2, 1024]");
     if (!(options.sharpBand >= 0.0 && options.sharpBand <= 0.5))
         throw ArgumentError("sharp-feature band must be in [0, 1/2] base-face edge lengths (0: off)");
+    bool sharpFeatures = false;
+    for (int f = 0; f < base.faceCount(); ++f) sharpFeatures = sharpFeatures || base.sharpMask(f) != 0;
+    if (sharpFeatures && options.sharpBand > 0.0) {
+        if (sharpCapRadius() >= 0.5)
+            throw ArgumentError("the mesh has infinitely sharp creases or corners, which need isolation level 2 or more (the end "
+                                "caps at level 1 cover half a face, so D cannot fade out around them); raise the isolation level, "
+                                "or set the sharp-feature band to 0 (the creases then open)");
+        sharpBand_ = std::min(options.sharpBand, 0.5 - sharpCapRadius());
+    }
     const int n = base.faceCount();
     autoAccurate_.assign(static_cast<std::size_t>(n), 0);
     autoBound_.assign(static_cast<std::size_t>(n), 0.0);

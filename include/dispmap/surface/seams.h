@@ -47,6 +47,9 @@ struct SeamClass {
 
 struct SeamReport {
     SeamClass sharp, endCap, other;
+    /// Inside faces: the outer edges of the end caps at extraordinary corners, where the end
+    /// cap's normal meets the regular patches' (evaluated 1e-9 to either side of the edge).
+    SeamClass endCapBoundary;
     double size = 0; ///< the bounding-box diagonal the gaps are relative to
 };
 
@@ -74,7 +77,8 @@ template <typename real> SeamReport measureSeams(const DisplacedSurface& surface
     std::mt19937 rng(options.seed);
     std::uniform_real_distribution<double> uniform(0.0, 1.0);
     const double ring = std::ldexp(1.0, -base.options().isolationLevel);
-    const double cap = surface.options().sharpBand > 0.0 ? surface.sharpCapRadius() : 0.0;
+    // The same classes whether the fade is on or off (before/after tables compare like points).
+    const double cap = surface.sharpCapRadius();
     auto rhoOf = [&](int face) { return static_cast<real>(options.rho - topo.scale(face)); };
     auto pointOn = [](int e, double y) {
         const glm::dvec2 a = TileTopology::cornerUV(e), b = TileTopology::cornerUV(e + 1);
@@ -121,6 +125,34 @@ template <typename real> SeamReport measureSeams(const DisplacedSurface& surface
                     c.worstY = y;
                 }
             }
+        }
+    }
+    // The end caps' outer edges inside each face (both neighbours of the end cap there are
+    // patches of the same face).
+    const double eps = 1e-9;
+    for (int t = 0; t < base.faceCount(); ++t) {
+        if (base.isHole(t)) continue;
+        const double h = ring * (topo.scale(t) ? 2.0 : 1.0);
+        for (int c = 0; c < 4; ++c) {
+            if (!base.isExtraordinaryCorner(t, c) || base.sharpMask(t) != 0) continue;
+            const glm::dvec2 corner = TileTopology::cornerUV(c), inward(corner.x == 0.0 ? 1.0 : -1.0, corner.y == 0.0 ? 1.0 : -1.0);
+            for (double y : {0.0, 0.25, 0.5, 0.75, uniform(rng), uniform(rng)})
+                for (int side = 0; side < 2; ++side) {
+                    // side 0: the edge a = h (across the first parameter), side 1: b = h.
+                    const glm::dvec2 along = side == 0 ? glm::dvec2(h, y * h) : glm::dvec2(y * h, h);
+                    const glm::dvec2 across = side == 0 ? glm::dvec2(eps, 0.0) : glm::dvec2(0.0, eps);
+                    const glm::dvec2 in = corner + inward * (along - across), out = corner + inward * (along + across);
+                    const SurfaceSample<real> sa = surface.evaluate<real>(t, real(in.x), real(in.y), options.normals, rhoOf(t));
+                    const SurfaceSample<real> sb = surface.evaluate<real>(t, real(out.x), real(out.y), options.normals, rhoOf(t));
+                    SeamClass& k = report.endCapBoundary;
+                    ++k.points;
+                    const double jump = detail::angleBetween(glm::dvec3(sa.normal), glm::dvec3(sb.normal));
+                    if (jump > k.normalJump) {
+                        k.normalJump = jump;
+                        k.worstFace = t;
+                        k.worstY = y;
+                    }
+                }
         }
     }
     return report;
