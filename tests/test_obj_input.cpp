@@ -81,15 +81,7 @@ std::string readText(const std::string& path) {
     return std::string(b.begin(), b.end());
 }
 
-/// Length of the bounding-box diagonal of the cage: the scale of position tolerances.
-double extentOf(const ControlMesh& mesh) {
-    dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
-    for (const dvec3& p : mesh.description().positions) {
-        lo = glm::min(lo, p);
-        hi = glm::max(hi, p);
-    }
-    return glm::length(hi - lo);
-}
+using dmtest::extentOf;
 
 } // namespace
 

@@ -25,14 +25,7 @@ using namespace dispmap;
 
 namespace {
 
-double meshExtent(const ControlMesh& mesh) {
-    glm::dvec3 lo(1e300), hi(-1e300);
-    for (const glm::dvec3& p : mesh.description().positions) {
-        lo = glm::min(lo, p);
-        hi = glm::max(hi, p);
-    }
-    return glm::length(hi - lo);
-}
+using dmtest::extentOf;
 
 /// The mesh with a random third of its interior edges infinitely sharp (sharpness 10) and a
 /// few vertices infinitely sharp corners: creases that end inside the surface (darts), meet
@@ -139,7 +132,7 @@ TEST_CASE("seams: infinitely sharp creases and corners stay closed from both sid
         for (std::uint32_t seed : {1u, 2u}) {
             const ControlMesh source = dmtest::shape(name);
             ControlMesh mesh = withSharpFeatures(source, seed);
-            const double amp = 0.03 * meshExtent(mesh);
+            const double amp = 0.03 * extentOf(mesh);
             const bool mixed = seed == 2;
             const std::vector<int> k = mixed ? mixedTileSizes(mesh, 4) : uniformTileSizes(mesh, 3);
             Built b(std::move(mesh), k, wavesOf(amp));
@@ -175,7 +168,7 @@ TEST_CASE("seams: infinitely sharp creases and corners stay closed from both sid
     // the surface is refused.
     {
         ControlMesh mesh = withSharpFeatures(dmtest::shape("catmark_nonquads"), 3);
-        const double amp = 0.03 * meshExtent(mesh);
+        const double amp = 0.03 * extentOf(mesh);
         const ControlMesh copy = mesh;
         TileSet tiles = buildTiles(mesh, uniformTileSizes(mesh, 3), wavesOf(amp));
         BaseSurfaceOptions iso2;
@@ -229,7 +222,7 @@ TEST_CASE("seams: normals across the end-cap rings of extraordinary vertices, fl
     double worst[2][2] = {{0, 0}, {0, 0}}, before = 1e300;
     for (Case& c : cases) {
         CAPTURE(c.name);
-        const double amp = 0.03 * meshExtent(c.mesh);
+        const double amp = 0.03 * extentOf(c.mesh);
         const DisplacementFunction src = c.image ? imageSource(c.mesh, brick, amp, 0.0, true) : wavesOf(amp);
         const std::vector<int> k = uniformTileSizes(c.mesh, 4);
         Built b(std::move(c.mesh), k, src);
@@ -276,7 +269,7 @@ TEST_CASE("seams: every OpenSubdiv regression shape the loader accepts", "[seams
             continue; // refusals are the reader's tests
         }
         ++accepted;
-        const double amp = 0.03 * meshExtent(*mesh);
+        const double amp = 0.03 * extentOf(*mesh);
         // Two sources: the waves on uniform tiles, and data discontinuous between faces (the
         // tile format must make it C1) on mixed sizes, read at a blend of two mip levels.
         const std::vector<int> k = uniformTileSizes(*mesh, 3), mixed = mixedTileSizes(*mesh, 4);

@@ -1,6 +1,7 @@
 #pragma once
 // Shared helpers of the tests: meshes from tests/data and generated ones.
 #include <cmath>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -54,6 +55,16 @@ inline std::string gridObj(int n, int m) {
             s += "f " + a + "/" + a + " " + b + "/" + b + " " + c + "/" + c + " " + d + "/" + d + "\n";
         }
     return s;
+}
+
+/// Length of the bounding-box diagonal of the cage: the scale of position tolerances.
+inline double extentOf(const dispmap::ControlMesh& mesh) {
+    glm::dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+    for (const glm::dvec3& p : mesh.description().positions) {
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+    }
+    return glm::length(hi - lo);
 }
 
 /// A fan of n quads around a centre vertex (builtin::fanObj).

@@ -62,15 +62,7 @@ const std::vector<std::string>& allShapes() {
     return shapes;
 }
 
-/// Length of the bounding-box diagonal of the cage: the scale of position tolerances.
-double extentOf(const ControlMesh& mesh) {
-    dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
-    for (const dvec3& p : mesh.description().positions) {
-        lo = glm::min(lo, p);
-        hi = glm::max(hi, p);
-    }
-    return glm::length(hi - lo);
-}
+using dmtest::extentOf;
 /// Sine of the angle between two directions (0 when either is zero).
 double sinBetween(dvec3 a, dvec3 b) {
     const double la = glm::length(a), lb = glm::length(b);

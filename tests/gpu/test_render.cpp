@@ -139,6 +139,38 @@ std::string sharpenedObj(const std::string& file, int pick, const std::string& o
     return target;
 }
 
+// The renderer's evaluated vertices (capture) against DisplacedSurface in double at the same
+// (face, u, v) and the tessellator's resolution there: the worst position error (of the mesh
+// size) and rho error, and how many vertices lie in faces with sharp features.
+struct CaptureErrors {
+    std::size_t vertices = 0;
+    double position = 0, rho = 0;
+    int sharpFaces = 0;
+};
+CaptureErrors captureErrors(const Scene& scene, const SceneSurface& s) {
+    RendererOptions o;
+    o.captureCapacity = 200000;
+    SurfaceRenderer r(dmgpu::context(), scene, s.surface, nullptr, o);
+    const RenderedImage im = r.render(1, 0);
+    REQUIRE(im.capturedTotal > 0);
+    REQUIRE(im.capturedTotal <= o.captureCapacity);
+    TessellateOptions to;
+    to.mips = MipSelection::TessFactor;
+    Tessellator cpu(s.surface, uniformTessFactors(s.base, scene.effects.tessValue), to);
+    const double size = meshSize(s.base);
+    CaptureErrors e;
+    e.vertices = im.captured.size();
+    for (const vulkan::CapturedVertex& v : im.captured) {
+        const double u = v.uv.x, w = v.uv.y;
+        const double rho = cpu.resolution(v.face, u, w);
+        const SurfaceSample<double> ref = s.surface.evaluate<double>(v.face, u, w, NormalMode::Approximate, rho);
+        e.position = std::max(e.position, glm::length(glm::dvec3(v.position) - ref.position) / size);
+        e.rho = std::max(e.rho, std::abs(double(v.rho) - rho));
+        e.sharpFaces += s.base.sharpMask(v.face) != 0 ? 1 : 0;
+    }
+    return e;
+}
+
 } // namespace
 
 TEST_CASE("renderer: evaluated vertices equal the CPU displaced surface at the same (face, u, v)", "[render]") {
@@ -147,25 +179,9 @@ TEST_CASE("renderer: evaluated vertices equal the CPU displaced surface at the s
         Scene scene = mixedOrDefault(mixed, 160, 120);
         scene.effects.tessValue = 6.5;
         SceneSurface s(scene);
-        RendererOptions o;
-        o.captureCapacity = 200000;
-        SurfaceRenderer r(dmgpu::context(), scene, s.surface, nullptr, o);
-        const RenderedImage im = r.render(1, 0);
-        REQUIRE(im.capturedTotal > 0);
-        REQUIRE(im.capturedTotal <= o.captureCapacity);
-        TessellateOptions to;
-        to.mips = MipSelection::TessFactor;
-        Tessellator cpu(s.surface, uniformTessFactors(s.base, scene.effects.tessValue), to);
-        const double size = meshSize(s.base);
-        double worstP = 0, worstRho = 0;
-        for (const vulkan::CapturedVertex& v : im.captured) {
-            const double u = v.uv.x, w = v.uv.y;
-            const double rho = cpu.resolution(v.face, u, w);
-            const SurfaceSample<double> ref = s.surface.evaluate<double>(v.face, u, w, NormalMode::Approximate, rho);
-            worstP = std::max(worstP, glm::length(glm::dvec3(v.position) - ref.position) / size);
-            worstRho = std::max(worstRho, std::abs(double(v.rho) - rho));
-        }
-        INFO("mixed sizes " << mixed << ": " << im.captured.size() << " vertices, worst position error " << worstP
+        const CaptureErrors e = captureErrors(scene, s);
+        const double worstP = e.position, worstRho = e.rho;
+        INFO("mixed sizes " << mixed << ": " << e.vertices << " vertices, worst position error " << worstP
                             << " of the mesh size, worst rho error " << worstRho);
         // Float evaluation (points, weights and texels rounded to float) against double:
         // a few float ulps of the size per term, summed over 16-20 control points and 18
@@ -331,27 +347,10 @@ TEST_CASE("renderer: evaluated vertices on sharp creases equal the CPU displaced
     scene.displacement.k = 3;
     scene.effects.tessValue = 6.5;
     SceneSurface s(scene);
-    RendererOptions o;
-    o.captureCapacity = 200000;
-    SurfaceRenderer r(dmgpu::context(), scene, s.surface, nullptr, o);
-    const RenderedImage im = r.render(1, 0);
-    REQUIRE(im.capturedTotal > 0);
-    REQUIRE(im.capturedTotal <= o.captureCapacity);
-    TessellateOptions to;
-    to.mips = MipSelection::TessFactor;
-    Tessellator cpu(s.surface, uniformTessFactors(s.base, scene.effects.tessValue), to);
-    const double size = meshSize(s.base);
-    double worst = 0;
-    int faded = 0;
-    for (const vulkan::CapturedVertex& v : im.captured) {
-        const double rho = cpu.resolution(v.face, double(v.uv.x), double(v.uv.y));
-        const SurfaceSample<double> ref = s.surface.evaluate<double>(v.face, v.uv.x, v.uv.y, NormalMode::Approximate, rho);
-        worst = std::max(worst, glm::length(glm::dvec3(v.position) - ref.position) / size);
-        faded += s.base.sharpMask(v.face) != 0 ? 1 : 0;
-    }
-    INFO(im.captured.size() << " vertices (" << faded << " in faces with sharp features), worst " << worst << " of the size");
-    CHECK(faded > 1000);
-    CHECK(worst < 1e-5);
+    const CaptureErrors e = captureErrors(scene, s);
+    INFO(e.vertices << " vertices (" << e.sharpFaces << " in faces with sharp features), worst " << e.position << " of the size");
+    CHECK(e.sharpFaces > 1000);
+    CHECK(e.position < 1e-5);
     dmgpu::checkNoValidationMessages();
 }
 
