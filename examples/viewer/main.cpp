@@ -29,7 +29,7 @@ const char* const kUsage =
     "  --animate                 start with the animated cage\n"
     "  --device D                Vulkan device: index or name substring (default: DISPMAP_VK_DEVICE, else lavapipe)\n"
     "  --validation              Vulkan validation (also DISPMAP_VK_VALIDATION=1); any message fails the run\n"
-    "  --faces-per-draw N        faces per draw call (default 16; lavapipe runs one draw on one thread)\n";
+    "  --faces-per-draw N        faces per draw call, 1..32 (default 16; lavapipe runs one draw on one thread)\n";
 
 double number(const std::string& option, const std::string& value, double lo, double hi) {
     std::size_t used = 0;
@@ -68,7 +68,7 @@ void parse(int argc, char** argv, viewer::ViewerOptions& o) {
         else if (a == "--animate") o.animate = true;
         else if (a == "--device") o.device = value();
         else if (a == "--validation") o.validation = true;
-        else if (a == "--faces-per-draw") o.facesPerDraw = integer(a, value(), 1, 1 << 20);
+        else if (a == "--faces-per-draw") o.facesPerDraw = integer(a, value(), 1, 32); // as `dispmap render` (docs/lavapipe.md)
         else if (!a.empty() && a[0] != '-' && o.scene.empty()) o.scene = a;
         else throw std::invalid_argument("unknown argument '" + a + "'");
     }

@@ -67,8 +67,8 @@ Viewer::Viewer(const ViewerOptions& options) : options_(options) {
     // The scene: a mesostructure scene has a "mesostructure" key.
     int width = 0, height = 0;
     if (!options_.scene.empty()) {
-        const std::vector<unsigned char> bytes = dispmap::detail::readFileBytes(options_.scene, "scene file");
-        const nlohmann::json j = nlohmann::json::parse(bytes.begin(), bytes.end(), nullptr, false, true);
+        // Read once, with the scene reader's limits (size, nesting depth), as `dispmap render` does.
+        const nlohmann::json j = dispmap::loadSceneJson(options_.scene);
         meso_ = dispmap::isMesoScene(j);
         if (meso_) {
             mesoScene_ = dispmap::parseMesoScene(j, options_.scene, std::filesystem::path(options_.scene).parent_path().string());
@@ -78,7 +78,7 @@ Viewer::Viewer(const ViewerOptions& options) : options_(options) {
             orbit_ = Orbit::around(mesoScene_.eye, mesoScene_.target, {0, 0, 1});
             orbit_.minPitch = 0.05; // the renderer needs the camera above the plane
         } else {
-            scene_ = dispmap::loadScene(options_.scene);
+            scene_ = dispmap::parseSceneDocument(j, options_.scene, std::filesystem::path(options_.scene).parent_path().string());
         }
     } else {
         scene_ = dispmap::defaultScene();
