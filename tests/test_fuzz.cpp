@@ -461,8 +461,8 @@ TEST_CASE("strict input: mesostructure options are checked before any map is bui
         {R"({"mesostructure": {}, "camera": {"eye": [0, 0, 1], "target": [0, 0, 1]}})", "the same point"},
         {R"({"mesostructure": {}, "light": [0, 0, 0]})", "'light' is the zero vector"},
         {R"({"mesostructure": {}, "light": [1, 0, -1], "effects": {"shadows": true}})", "above the horizon"},
-        {R"({"mesostructure": {}, "camera": {"eye": [1e300, 0, 1]}})", "beyond +-1e18"},
-        {R"({"mesostructure": {}, "tile": 1e300})", "beyond +-1e18"},
+        {R"({"mesostructure": {}, "camera": {"eye": [1e300, 0, 1]}})", "beyond +-1e+18"},
+        {R"({"mesostructure": {}, "tile": 1e300})", "beyond +-1e+18"},
     };
     for (const auto& [json, message] : rows) {
         INFO(json);

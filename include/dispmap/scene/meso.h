@@ -23,6 +23,7 @@
 
 #include "dispmap/io/png.h"
 #include "dispmap/meso/march.h"
+#include "dispmap/scene/scene.h"
 
 namespace dispmap {
 
@@ -150,17 +151,10 @@ inline HeightImage downsampleHeightImage(const HeightImage& img, int size) {
 
 namespace detail {
 // A string from the input (a key, a name) for a message, cut to about 80 characters.
-inline std::string mesoExcerpt(const std::string& text) {
-    if (text.size() <= 80) return text;
-    std::size_t n = 77;
-    while (n > 0 && (static_cast<unsigned char>(text[n]) & 0xC0) == 0x80) --n; // not inside a UTF-8 character
-    return text.substr(0, n) + "...";
-}
-// Largest camera coordinate, light component, tile and slab size: they go to the GPU as floats,
-// which square them (as kMaxDrawValue in surface/draw.h).
-inline constexpr double kMaxMesoSceneValue = 1e18;
-// Smallest field of view, degrees (as kMinFovDeg in surface/draw.h).
-inline constexpr double kMinMesoFovDeg = 0.01;
+inline std::string mesoExcerpt(const std::string& text) { return excerpt(text); }
+// Camera coordinates, light components, tile and slab sizes go to the GPU as floats, which
+// square them: bounded as a surface draw's values are (kMaxDrawValue, surface/draw.h), and the
+// field of view, image size and paths as there and in scene files.
 
 inline void mesoKeys(const nlohmann::json& j, const std::string& scene, const std::string& where, std::initializer_list<const char*> keys) {
     if (!j.is_object()) throw ArgumentError(scene + ": '" + where + "' must be an object");
@@ -180,8 +174,8 @@ template <class T> T mesoNumber(const nlohmann::json& j, const char* key, T fall
     if constexpr (std::is_integral_v<T>) {
         if (d != std::floor(d) || std::abs(d) > 1e9) throw ArgumentError(scene + ": '" + where + key + "' must be an integer");
     } else {
-        if (std::abs(d) > kMaxMesoSceneValue)
-            throw ArgumentError(scene + ": '" + where + key + "' is beyond +-1e18 (the GPU holds it as a float)");
+        if (std::abs(d) > kMaxDrawValue)
+            throw ArgumentError(scene + ": '" + where + key + "' is beyond +-" + drawNumber(kMaxDrawValue) + " (the GPU holds it as a float)");
     }
     return static_cast<T>(d);
 }
@@ -192,8 +186,9 @@ inline glm::dvec3 mesoVec3(const nlohmann::json& j, const char* key, glm::dvec3 
         throw ArgumentError(scene + ": '" + where + key + "' must be [x, y, z]");
     const glm::dvec3 r(v[0].get<double>(), v[1].get<double>(), v[2].get<double>());
     for (int i = 0; i < 3; ++i)
-        if (!(std::abs(r[i]) <= kMaxMesoSceneValue))
-            throw ArgumentError(scene + ": '" + where + key + "' is not finite or beyond +-1e18 (the GPU holds it as a float)");
+        if (!(std::abs(r[i]) <= kMaxDrawValue))
+            throw ArgumentError(scene + ": '" + where + key + "' is not finite or beyond +-" + drawNumber(kMaxDrawValue) +
+                                " (the GPU holds it as a float)");
     return r;
 }
 inline MesoMapOptions mesoSceneMapOptions(const MesoSceneDesc& s) {
@@ -225,7 +220,9 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
         if (!m["height"].is_string()) throw fail("'mesostructure.height' must be a file name");
         const std::string& h = m["height"].get_ref<const std::string&>();
         if (h.empty()) throw fail("'mesostructure.height' is empty");
-        if (h.size() > 4096) throw fail("'mesostructure.height' is a path of " + std::to_string(h.size()) + " characters, longer than 4096");
+        if (h.size() > kMaxScenePathLength)
+            throw fail("'mesostructure.height' is a path of " + std::to_string(h.size()) + " characters, longer than " +
+                       std::to_string(kMaxScenePathLength));
         const std::filesystem::path p(h);
         s.heightImage = p.is_absolute() || baseDir.empty() ? p.string() : (std::filesystem::path(baseDir) / p).string();
     }
@@ -265,8 +262,9 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
             return v.get<std::int64_t>();
         };
         const std::int64_t w = side(r[0]), h = side(r[1]);
-        if (w < 1 || h < 1 || w > 4096 || h > 4096)
-            throw fail("'resolution' " + std::to_string(w) + " x " + std::to_string(h) + " is out of range (1 .. 4096)");
+        if (w < 1 || h < 1 || w > kMaxImageSize || h > kMaxImageSize)
+            throw fail("'resolution' " + std::to_string(w) + " x " + std::to_string(h) + " is out of range (1 .. " +
+                       std::to_string(kMaxImageSize) + ")");
         s.width = static_cast<int>(w);
         s.height = static_cast<int>(h);
     }
@@ -313,8 +311,8 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
         throw fail("'mesostructure.depth' " + std::to_string(s.depth) + " is not in (0, layers = " + std::to_string(s.layers) + "]");
     if (s.block < 1 || s.block > 32) throw fail("'mesostructure.block' " + std::to_string(s.block) + " is not in 1..32");
     // The renderer's rules, here so that no map is built for a scene it would refuse.
-    if (!(s.fov >= kMinMesoFovDeg && s.fov < 180))
-        throw fail("'camera.fov' " + std::to_string(s.fov) + " is not in [0.01, 180) degrees");
+    if (!(s.fov >= kMinFovDeg && s.fov < 180))
+        throw fail("'camera.fov' " + std::to_string(s.fov) + " is not in [" + detail::drawNumber(kMinFovDeg) + ", 180) degrees");
     if (!(s.eye.z > 0)) throw fail("'camera.eye' must be above the plane z = 0 (eye.z > 0)");
     if (!(glm::length(s.target - s.eye) > 0)) throw fail("'camera.eye' and 'camera.target' are the same point");
     if (!(glm::length(s.light) > 0)) throw fail("'light' is the zero vector");

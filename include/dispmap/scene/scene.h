@@ -239,13 +239,7 @@ class SceneReader {
     }
 
   private:
-    static std::string cut(std::string s) {
-        if (s.size() <= kExcerpt) return s;
-        std::size_t n = kExcerpt - 3;
-        while (n > 0 && (static_cast<unsigned char>(s[n]) & 0xC0) == 0x80) --n; // not inside a UTF-8 character
-        s.resize(n);
-        return s + "...";
-    }
+    static std::string cut(const std::string& s) { return detail::excerpt(s, kExcerpt); }
     static void excerptTo(const Json& j, std::string& out, int depth) {
         const auto dumpString = [&](const std::string& str) {
             out += Json(str.size() > kExcerpt ? str.substr(0, kExcerpt) : str).dump(-1, ' ', false, Json::error_handler_t::replace);

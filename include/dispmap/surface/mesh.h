@@ -59,6 +59,28 @@ struct MeshDescription {
 
 namespace detail {
 
+/// The first crease pair (index into the pairs) of `d` that is not an edge of its faces, or -1.
+/// The face list must be consistent (sizes summing to the vertex list) and the pairs in range.
+inline long firstCreaseNotEdge(const MeshDescription& d) {
+    if (d.creaseVertexPairs.empty()) return -1;
+    auto key = [](int a, int b) {
+        return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(std::min(a, b))) << 32) |
+               static_cast<std::uint32_t>(std::max(a, b));
+    };
+    std::unordered_set<std::uint64_t> edges;
+    for (std::size_t f = 0, o = 0; f < d.faceSizes.size(); o += static_cast<std::size_t>(d.faceSizes[f]), ++f) {
+        const std::size_t size = static_cast<std::size_t>(d.faceSizes[f]);
+        for (std::size_t j = 0; j < size; ++j) edges.insert(key(d.faceVertices[o + j], d.faceVertices[o + (j + 1) % size]));
+    }
+    for (std::size_t i = 0; 2 * i + 1 < d.creaseVertexPairs.size(); ++i)
+        if (!edges.count(key(d.creaseVertexPairs[2 * i], d.creaseVertexPairs[2 * i + 1]))) return static_cast<long>(i);
+    return -1;
+}
+inline std::string creaseNotEdge(const MeshDescription& d, std::size_t i) {
+    return "crease pair (" + std::to_string(d.creaseVertexPairs[2 * i]) + ", " + std::to_string(d.creaseVertexPairs[2 * i + 1]) +
+           ") (0-based) is not an edge of the mesh";
+}
+
 /// Where an OBJ statement was read: "name:line: reason" messages.
 struct ObjPlace {
     const std::string& name;
@@ -423,26 +445,16 @@ inline ObjScan scanObj(const std::string& text, const std::string& name) {
     }
     // Tags (0-based indices).
     const int nf = static_cast<int>(d.faceSizes.size());
-    std::unordered_set<std::uint64_t> edges;
-    auto edgeKey = [](int a, int b) {
-        return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(std::min(a, b))) << 32) |
-               static_cast<std::uint32_t>(std::max(a, b));
-    };
-    if (!d.creaseVertexPairs.empty())
-        for (std::size_t f = 0, k = 0; f < d.faceSizes.size(); k += static_cast<std::size_t>(d.faceSizes[f]), ++f)
-            for (int j = 0; j < d.faceSizes[f]; ++j)
-                edges.insert(edgeKey(d.faceVertices[k + static_cast<std::size_t>(j)],
-                                     d.faceVertices[k + static_cast<std::size_t>((j + 1) % d.faceSizes[f])]));
     for (std::size_t i = 0; i < d.creaseWeights.size(); ++i) {
         at.line = s.creaseLines[i];
-        const int a = d.creaseVertexPairs[2 * i], b = d.creaseVertexPairs[2 * i + 1];
-        for (int v : {a, b})
+        for (int v : {d.creaseVertexPairs[2 * i], d.creaseVertexPairs[2 * i + 1]})
             if (v < 0 || v >= nv)
                 at.fail("crease refers to vertex " + std::to_string(v) + " (0-based), but the mesh has " + std::to_string(nv) +
                         " vertices");
-        if (!edges.count(edgeKey(a, b)))
-            at.fail("crease pair (" + std::to_string(a) + ", " + std::to_string(b) +
-                    ") (0-based) is not an edge of the mesh");
+    }
+    if (const long i = firstCreaseNotEdge(d); i >= 0) {
+        at.line = s.creaseLines[static_cast<std::size_t>(i)];
+        at.fail(creaseNotEdge(d, static_cast<std::size_t>(i)));
     }
     for (std::size_t i = 0; i < d.cornerVertices.size(); ++i) {
         at.line = s.cornerLines[i];
@@ -632,22 +644,9 @@ inline void ControlMesh::build() {
         if (!std::isfinite(t.x) || !std::isfinite(t.y)) throw MeshError(n + ": a texture coordinate is NaN or infinite");
     for (int v : d.creaseVertexPairs)
         if (v < 0 || v >= nv) throw MeshError(n + ": crease refers to vertex " + std::to_string(v) + " (0-based), out of range");
-    if (!d.creaseVertexPairs.empty()) {
-        // Far warns about, and skips, a crease pair that is not an edge.
-        auto key = [](int a, int b) {
-            return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(std::min(a, b))) << 32) |
-                   static_cast<std::uint32_t>(std::max(a, b));
-        };
-        std::unordered_set<std::uint64_t> edges;
-        for (std::size_t f = 0; f < d.faceSizes.size(); ++f) {
-            const std::size_t o = static_cast<std::size_t>(offsets_[f]), size = static_cast<std::size_t>(d.faceSizes[f]);
-            for (std::size_t j = 0; j < size; ++j) edges.insert(key(d.faceVertices[o + j], d.faceVertices[o + (j + 1) % size]));
-        }
-        for (std::size_t i = 0; i + 1 < d.creaseVertexPairs.size(); i += 2)
-            if (!edges.count(key(d.creaseVertexPairs[i], d.creaseVertexPairs[i + 1])))
-                throw MeshError(n + ": crease pair (" + std::to_string(d.creaseVertexPairs[i]) + ", " +
-                                std::to_string(d.creaseVertexPairs[i + 1]) + ") (0-based) is not an edge of the mesh");
-    }
+    // Far warns about, and skips, a crease pair that is not an edge.
+    if (const long i = detail::firstCreaseNotEdge(d); i >= 0)
+        throw MeshError(n + ": " + detail::creaseNotEdge(d, static_cast<std::size_t>(i)));
     for (int v : d.cornerVertices)
         if (v < 0 || v >= nv) throw MeshError(n + ": corner refers to vertex " + std::to_string(v) + " (0-based), out of range");
     for (int f : d.holes)

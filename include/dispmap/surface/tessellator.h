@@ -286,6 +286,9 @@ class Tessellator {
     TriangleMesh tessellate() const;
 
   private:
+    /// The vertex (TileTopology id) in the middle of tile t's edge e where a quad edge meets two
+    /// sub-faces of an N-gon, or -1.
+    int tJunctionMidpoint(int t, int e) const;
     struct Pending {
         int face;
         glm::dvec2 uv;
@@ -383,6 +386,16 @@ inline double Tessellator::resolution(int face, double u, double v) const {
     return r - double(topo.scale(face));
 }
 
+inline int Tessellator::tJunctionMidpoint(int t, int e) const {
+    const TileTopology& topo = surface_->base().topology();
+    const std::vector<TileTopology::Link>& links = topo.links(t, e);
+    if (!(topo.scale(t) == 0 && links.size() == 2 && links[0].beta != 1.0)) return -1;
+    // The end of the sub-face edge covering [0, 1/2] that is not this edge's first corner.
+    const TileTopology::Link& l = links[0].y0 == 0.0 ? links[0] : links[1];
+    const int s0 = topo.cornerVertex(l.tile, l.edge), s1 = topo.cornerVertex(l.tile, l.edge + 1);
+    return s0 == topo.cornerVertex(t, e) ? s1 : s0;
+}
+
 inline void Tessellator::tile(Build& b, int t) const {
     const TileTopology& topo = surface_->base().topology();
     // (u, v) of edge e at edge parameter y (0 at corner e, 1 at corner e + 1).
@@ -435,13 +448,7 @@ inline void Tessellator::tile(Build& b, int t) const {
         std::vector<Point>& pts = edges[static_cast<std::size_t>(e)];
         const int A = topo.cornerVertex(t, e), B = topo.cornerVertex(t, e + 1);
         const int cA = corners[static_cast<std::size_t>(e)], cB = corners[static_cast<std::size_t>((e + 1) & 3)];
-        const std::vector<TileTopology::Link>& links = topo.links(t, e);
-        const bool tjunction = topo.scale(t) == 0 && links.size() == 2 && links[0].beta != 1.0;
-        if (tjunction) {
-            // The midpoint vertex: the end of the sub-face edge covering [0, 1/2] that is not A.
-            const TileTopology::Link& l = links[0].y0 == 0.0 ? links[0] : links[1];
-            const int s0 = topo.cornerVertex(l.tile, l.edge), s1 = topo.cornerVertex(l.tile, l.edge + 1);
-            const int M = s0 == A ? s1 : s0;
+        if (const int M = tJunctionMidpoint(t, e); M >= 0) {
             int& cM = b.corner[static_cast<std::size_t>(M)];
             if (cM < 0) cM = b.add(t, edgeUV(e, 0.5));
             segment(e, A, M, cA, cM, 0.0, 0.5, pts);
@@ -532,11 +539,7 @@ inline TessellationSize Tessellator::estimate() const {
         std::array<std::uint64_t, 4> n{};
         for (int e = 0; e < 4; ++e) {
             const int A = topo.cornerVertex(t, e), B = topo.cornerVertex(t, e + 1);
-            const std::vector<TileTopology::Link>& links = topo.links(t, e);
-            if (topo.scale(t) == 0 && links.size() == 2 && links[0].beta != 1.0) {
-                const TileTopology::Link& l = links[0].y0 == 0.0 ? links[0] : links[1];
-                const int s0 = topo.cornerVertex(l.tile, l.edge), s1 = topo.cornerVertex(l.tile, l.edge + 1);
-                const int M = s0 == A ? s1 : s0;
+            if (const int M = tJunctionMidpoint(t, e); M >= 0) {
                 n[static_cast<std::size_t>(e)] = detail::spacingSegments(segmentFactor(std::min(A, M), std::max(A, M)), options_.spacing) +
                                                  detail::spacingSegments(segmentFactor(std::min(M, B), std::max(M, B)), options_.spacing);
             } else {
