@@ -2,6 +2,7 @@
 // Whole-file reads and atomic writes (temporary file + rename) shared by the file formats.
 #include <atomic>
 #include <cerrno>
+#include <charconv>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
@@ -46,6 +47,13 @@ inline std::string notRegularFile(const std::filesystem::file_status& st) {
 // in callers.
 [[noreturn]] inline void throwFileError(const char* verb, const char* what, const std::string& path, const std::string& why) {
     throw FileError(std::string(verb) + what + " '" + path + "': " + why);
+}
+
+/// Appends x in the shortest decimal form that reads back to the same double (OBJ writers).
+inline void appendNumber(std::string& s, double x) {
+    char buf[32];
+    const auto r = std::to_chars(buf, buf + sizeof buf, x);
+    s.append(buf, r.ptr);
 }
 
 // The whole content of a file. Only regular files are read: a directory, FIFO, device or socket

@@ -16,11 +16,6 @@
 namespace dispmap {
 
 namespace detail {
-inline void appendNumber(std::string& s, double x) {
-    char buf[32];
-    const auto r = std::to_chars(buf, buf + sizeof buf, x);
-    s.append(buf, r.ptr);
-}
 inline void checkMeshForWriting(const TriangleMesh& m, const std::string& path) {
     if (m.normals.size() != m.positions.size())
         throw ArgumentError("cannot write '" + path + "': " + std::to_string(m.positions.size()) + " positions but " +
@@ -67,15 +62,21 @@ inline void writeObj(const TriangleMesh& mesh, const std::string& path) {
     detail::writeFileAtomically(path, std::vector<unsigned char>(s.begin(), s.end()), "OBJ mesh");
 }
 
-/// Writes `mesh` as binary little-endian PLY: element vertex (float x, y, z, nx, ny, nz) and
-/// element face (list uchar uint vertex_indices), atomically. Throws as writeObj.
-inline void writePly(const TriangleMesh& mesh, const std::string& path) {
+/// Writes `mesh` as binary little-endian PLY: element vertex (float x, y, z, nx, ny, nz, and
+/// uchar red, green, blue when `colours` is given, one per vertex) and element face (list uchar
+/// uint vertex_indices), atomically. Throws as writeObj, and ArgumentError for a colour count
+/// that is not the vertex count.
+inline void writePly(const TriangleMesh& mesh, const std::string& path, const std::vector<glm::u8vec3>* colours = nullptr) {
     detail::checkMeshForWriting(mesh, path);
+    if (colours && colours->size() != mesh.positions.size())
+        throw ArgumentError("cannot write '" + path + "': " + std::to_string(colours->size()) + " colours for " +
+                            std::to_string(mesh.positions.size()) + " vertices");
     const std::string header = "ply\nformat binary_little_endian 1.0\ncomment dispmap tessellation\nelement vertex " +
                                std::to_string(mesh.vertexCount()) +
                                "\nproperty float x\nproperty float y\nproperty float z\nproperty float nx\nproperty "
-                               "float ny\nproperty float nz\nelement face " +
-                               std::to_string(mesh.triangleCount()) +
+                               "float ny\nproperty float nz\n" +
+                               (colours ? "property uchar red\nproperty uchar green\nproperty uchar blue\n" : "") +
+                               "element face " + std::to_string(mesh.triangleCount()) +
                                "\nproperty list uchar uint vertex_indices\nend_header\n";
     std::vector<unsigned char> bytes(header.begin(), header.end());
     bytes.reserve(bytes.size() + mesh.positions.size() * 24 + mesh.triangles.size() * 13);
@@ -86,6 +87,8 @@ inline void writePly(const TriangleMesh& mesh, const std::string& path) {
     for (std::size_t i = 0; i < mesh.positions.size(); ++i) {
         const glm::dvec3 &p = mesh.positions[i], &n = mesh.normals[i];
         for (double x : {p.x, p.y, p.z, n.x, n.y, n.z}) putFloat(x);
+        if (colours)
+            for (int c = 0; c < 3; ++c) bytes.push_back((*colours)[i][c]);
     }
     for (const glm::ivec3& t : mesh.triangles) {
         bytes.push_back(3);

@@ -147,6 +147,17 @@ struct ByteReader {
 /// (naming the tile) if a tile has k outside [kMinTileLog2, kMaxTileLog2], a size difference
 /// above k - kMinTileLog2, coefficients.size() != Tile::totalTexels(k), a NaN/Inf
 /// coefficient or a file above detail::kMaxTileFileBytes (nothing is written then), and FileError if the file cannot be written.
+/// The size of the file saveTiles writes for `tiles` tiles holding `floats` coefficients in all:
+/// magic and version (12), header, one record per tile, the coefficients, the CRC.
+inline std::uint64_t tileFileBytes(std::uint64_t tiles, std::uint64_t floats) {
+    return 16 + detail::kTileFileHeaderBytes + detail::kTileFileRecordBytes * tiles + 4 * floats + 4;
+}
+inline std::uint64_t tileFileBytes(const TileSet& tiles) {
+    std::uint64_t floats = 0;
+    for (const Tile& t : tiles.tiles) floats += t.coefficients.size();
+    return tileFileBytes(tiles.tiles.size(), floats);
+}
+
 inline void saveTiles(const TileSet& tiles, const std::string& path) {
     const auto invalid = [&](std::size_t i, const std::string& why) {
         return ArgumentError("saveTiles('" + path + "'): tile " + std::to_string(i) + ": " + why);
@@ -172,8 +183,7 @@ inline void saveTiles(const TileSet& tiles, const std::string& path) {
         floats += t.coefficients.size();
     }
 
-    const std::uint64_t fileBytes =
-        16 + detail::kTileFileHeaderBytes + detail::kTileFileRecordBytes * std::uint64_t{tiles.tiles.size()} + 4 * std::uint64_t{floats} + 4;
+    const std::uint64_t fileBytes = tileFileBytes(tiles.tiles.size(), floats);
     if (fileBytes > detail::kMaxTileFileBytes)
         throw ArgumentError("saveTiles('" + path + "'): " + std::to_string(fileBytes) + " bytes are more than the " +
                             std::to_string(detail::kMaxTileFileBytes) + " a tile file may have (loadTiles would refuse it)");

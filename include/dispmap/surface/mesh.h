@@ -524,10 +524,13 @@ inline MeshDescription parseObj(const std::string& text, const std::string& name
         }
     }
     if (face != d.faceSizes.size()) throw disagree("the number of faces");
-    for (std::size_t i = 0; i + 2 < attrib.vertices.size(); i += 3)
-        d.positions.emplace_back(attrib.vertices[i], attrib.vertices[i + 1], attrib.vertices[i + 2]);
-    for (std::size_t i = 0; i + 1 < attrib.texcoords.size(); i += 2)
-        d.uvs.emplace_back(attrib.texcoords[i], attrib.texcoords[i + 1]);
+    // The values are the line check's: std::from_chars rounds correctly, tinyobjloader's own
+    // parser can be an ulp off, and a mesh written with shortest round-trip numbers
+    // (writeObj) must read back bit for bit.
+    for (std::size_t i = 0; i + 2 < s.positions.size(); i += 3)
+        d.positions.emplace_back(s.positions[i], s.positions[i + 1], s.positions[i + 2]);
+    for (std::size_t i = 0; i + 1 < s.uvs.size(); i += 2)
+        d.uvs.emplace_back(s.uvs[i], s.uvs[i + 1]);
     if (d.faceUVs.empty()) d.uvs.clear();
     return d;
 }
@@ -719,6 +722,45 @@ inline std::uint64_t topologyHash(const ControlMesh& mesh) {
 inline ControlMesh ControlMesh::fromObjFile(const std::string& path) {
     const std::vector<unsigned char> bytes = detail::readFileBytes(path, "mesh file");
     return fromObjText(std::string(bytes.begin(), bytes.end()), path);
+}
+
+/// Writes the control mesh `d` as OBJ (v, f; 1-based; shortest round-trip decimal doubles),
+/// atomically: what parseObj reads back with the same positions and face order, hence the same
+/// topologyHash. Boundary rule, creases, corners, holes and the non-default rules are written as
+/// OpenSubdiv's `t` tags; texture coordinates are not written. Throws FileError naming the path.
+inline void writeObj(const MeshDescription& d, const std::string& path) {
+    std::string s = "# " + d.name + ": " + std::to_string(d.positions.size()) + " vertices, " +
+                    std::to_string(d.faceSizes.size()) + " faces\n";
+    for (const glm::dvec3& p : d.positions) {
+        s += "v";
+        for (int c = 0; c < 3; ++c) {
+            s += ' ';
+            detail::appendNumber(s, p[c]);
+        }
+        s += '\n';
+    }
+    std::size_t at = 0;
+    for (int n : d.faceSizes) {
+        s += 'f';
+        for (int k = 0; k < n; ++k) s += ' ' + std::to_string(d.faceVertices[at++] + 1);
+        s += '\n';
+    }
+    if (d.boundary == Sdc::Options::VTX_BOUNDARY_EDGE_AND_CORNER) s += "t interpolateboundary 1/0/0 1\n";
+    else if (d.boundary == Sdc::Options::VTX_BOUNDARY_NONE) s += "t interpolateboundary 1/0/0 0\n";
+    for (std::size_t i = 0; i < d.creaseWeights.size(); ++i) {
+        s += "t crease 2/1/0 " + std::to_string(d.creaseVertexPairs[2 * i]) + ' ' + std::to_string(d.creaseVertexPairs[2 * i + 1]) + ' ';
+        detail::appendNumber(s, static_cast<double>(d.creaseWeights[i]));
+        s += '\n';
+    }
+    for (std::size_t i = 0; i < d.cornerWeights.size(); ++i) {
+        s += "t corner 1/1/0 " + std::to_string(d.cornerVertices[i]) + ' ';
+        detail::appendNumber(s, static_cast<double>(d.cornerWeights[i]));
+        s += '\n';
+    }
+    for (int h : d.holes) s += "t hole 1/0/0 " + std::to_string(h) + '\n';
+    if (d.creasing == Sdc::Options::CREASE_CHAIKIN) s += "t creasemethod 0/0/1 chaikin\n";
+    if (d.triangles == Sdc::Options::TRI_SUB_SMOOTH) s += "t smoothtriangles 0/0/1 smooth\n";
+    detail::writeFileAtomically(path, std::vector<unsigned char>(s.begin(), s.end()), "OBJ mesh");
 }
 
 } // namespace dispmap
