@@ -10,6 +10,8 @@
 # io        kernels core meso io                 glm, png, zlib
 # scene     kernels core meso surface io scene   glm, nlohmann
 # vulkan    kernels core meso surface vulkan     glm, vulkan
+# bake      kernels core meso surface io bake    glm, opensubdiv, tinyobjloader, nlohmann, embree3, tbb,
+#                                                assimp, meshoptimizer, nanoflann, sys/resource.h
 # A standard header is one without a '.' or a '/' in its name (<vector>, <cmath>).
 cmake_minimum_required(VERSION 3.25)
 set(allowed_kernels kernels)
@@ -19,6 +21,7 @@ set(allowed_surface kernels core surface)
 set(allowed_io kernels core meso io)
 set(allowed_scene kernels core meso surface io scene)
 set(allowed_vulkan kernels core meso surface vulkan)
+set(allowed_bake kernels core meso surface io bake)
 set(third_kernels "^glm/")
 set(third_core "^glm/")
 set(third_meso "^glm/")
@@ -26,6 +29,7 @@ set(third_surface "^(glm|opensubdiv)/|^tiny_obj_loader\\.h$")
 set(third_io "^glm/|^(png|zlib)\\.h$")
 set(third_scene "^(glm|nlohmann)/")
 set(third_vulkan "^(glm|vulkan)/")
+set(third_bake "^(glm|opensubdiv|nlohmann|embree3|tbb|assimp)/|^(tiny_obj_loader\\.h|meshoptimizer\\.h|nanoflann\\.hpp|sys/resource\\.h)$")
 
 set(failures 0)
 set(checked 0)

@@ -11,6 +11,11 @@ packages=(
   libpng-dev            # 16-bit greyscale height images
   libcli11-dev          # command-line parsing of the dispmap program
   nlohmann-json3-dev    # JSON output of `dispmap eval` (and scene files)
+  libembree-dev         # bake: ray casting and closest points on dense meshes (Embree 3)
+  libtbb-dev            # bake: all cores for the fitting, extraction and error measurement
+  libmeshoptimizer-dev  # bake: simplification of a dense mesh to a base mesh (the DSS route)
+  libassimp-dev         # bake: PLY (ASCII, binary) and OFF dense meshes
+  libnanoflann-dev      # bake: nearest dense vertex in position+normal space (k-d tree)
   catch2                # unit tests (Catch2 v2) under CTest
   libbenchmark-dev      # Google Benchmark for the figures
   glslang-tools         # glslangValidator: every generated GLSL include and shader compiled to SPIR-V

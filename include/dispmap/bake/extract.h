@@ -1,0 +1,152 @@
+#pragma once
+// Displacement extraction by ray casting (Huang & Feng 2017 §3.3; Nießner & Loop 2013 §4.1):
+// for every tile sample (the sub-patch centres ((i + 1/2)/s, (j + 1/2)/s) that the tile fit
+// interpolates, surface/tile_builder.h), a ray from the base surface point s along +N and -N,
+// N = normalize(s_u x s_v) as the displaced surface uses it; D = the signed distance to the
+// nearest hit within the shell |t| <= shell.
+//
+// The rules for a sample without a proper hit (counted in the report, never left as garbage):
+//  * fold-over: the nearest hit's triangle faces against N (dot < 0). The dense surface folds
+//    back over the base surface there, and no height along N describes it;
+//  * miss: no triangle within the shell on either side (a hole in the scan, a base surface
+//    that strays from the detail);
+//  both are filled with the closest point c of the dense mesh: D = dot(c - s, N), clamped to
+//  the shell. That is the height of the dense surface's nearest point seen along N: it keeps
+//  D continuous with the neighbouring hits where the fold or hole is small.
+#include <atomic>
+#include <cmath>
+#include <memory>
+#include <vector>
+
+#include <tbb/parallel_for.h>
+
+#include "dispmap/bake/ray_scene.h"
+#include "dispmap/surface/base_surface.h"
+#include "dispmap/surface/tile_builder.h"
+
+namespace dispmap {
+
+struct ExtractOptions {
+    double shell = 0.05; ///< the rays' reach either side, a fraction of the dense mesh's diagonal
+};
+
+struct ExtractReport {
+    long samples = 0, hits = 0, misses = 0, foldovers = 0;
+    double maxAbs = 0; ///< largest |D|
+};
+
+/// The samples of every tile (row-major, s = 2^k[t] per side), in tile order.
+inline std::vector<std::vector<double>> extractSamples(const BaseSurface& base, const std::vector<int>& k,
+                                                       const RayScene& dense, double diagonal,
+                                                       const ExtractOptions& options = {}, ExtractReport* report = nullptr) {
+    if (!(options.shell > 0.0) || !std::isfinite(options.shell)) throw ArgumentError("extraction: the shell must be > 0");
+    const int n = static_cast<int>(k.size());
+    std::vector<std::vector<double>> out(static_cast<std::size_t>(n));
+    std::atomic<long> hits{0}, misses{0}, folds{0};
+    const float shell = static_cast<float>(options.shell * diagonal);
+    tbb::parallel_for(0, n, [&](int t) {
+        const int s = 1 << k[static_cast<std::size_t>(t)];
+        std::vector<double>& y = out[static_cast<std::size_t>(t)];
+        y.assign(static_cast<std::size_t>(s * s), 0.0);
+        if (base.isHole(t)) return;
+        long h = 0, m = 0, f = 0;
+        for (int j = 0; j < s; ++j)
+            for (int i = 0; i < s; ++i) {
+                const BaseSample<double> b = base.evaluate<double>(t, (i + 0.5) / s, (j + 0.5) / s, false);
+                const glm::dvec3 cr = glm::cross(b.du, b.dv);
+                const double l = glm::length(cr);
+                const glm::dvec3 nd = l > 0.0 ? cr / l : glm::dvec3(0.0);
+                const glm::vec3 o(b.p), dir(nd);
+                const RayScene::Hit up = dense.intersect(o, dir, 0.0f, shell);
+                const RayScene::Hit down = dense.intersect(o, -dir, 0.0f, up.hit ? up.t : shell);
+                double d = 0.0;
+                bool fill = false;
+                if (down.hit) { // nearer than any hit upwards (its reach was cut at up.t)
+                    d = -static_cast<double>(down.t);
+                    if (glm::dot(down.normal, dir) < 0.0f) fill = true, ++f;
+                } else if (up.hit) {
+                    d = static_cast<double>(up.t);
+                    if (glm::dot(up.normal, dir) < 0.0f) fill = true, ++f;
+                } else {
+                    fill = true;
+                    ++m;
+                }
+                if (fill) {
+                    const RayScene::Closest c = dense.closest(o);
+                    d = c.found ? std::clamp(glm::dot(glm::dvec3(c.point) - b.p, nd), -static_cast<double>(shell),
+                                             static_cast<double>(shell))
+                                : 0.0;
+                } else {
+                    ++h;
+                }
+                y[static_cast<std::size_t>(j * s + i)] = d;
+            }
+        hits += h;
+        misses += m;
+        folds += f;
+    });
+    if (report) {
+        report->hits = hits;
+        report->misses = misses;
+        report->foldovers = folds;
+        report->samples = hits + misses + folds;
+        report->maxAbs = 0.0;
+        for (const std::vector<double>& y : out)
+            for (double d : y) report->maxAbs = std::max(report->maxAbs, std::abs(d));
+    }
+    return out;
+}
+
+/// Per-face tile sizes from the local detail (§4.4's mixed sizes, chosen by the data): for each
+/// tile, the smallest k whose samples (the 2^(kMax - k)-square box means of the kMax samples,
+/// i.e. prefiltered) reproduce every kMax sample within `tolerance` when interpolated
+/// bilinearly between their centres (clamped at the tile's border). A smooth stretch of a scan
+/// gets small tiles, wrinkles keep the full size. `samples` (at kMax, as extractSamples gives
+/// them) are replaced by those of the chosen sizes; returns the sizes. All tiles must be quads'
+/// (one size per Ptex face, no T-junctions: a baked base mesh is all quads).
+inline std::vector<int> adaptiveTileSizes(std::vector<std::vector<double>>& samples, int kMax, double tolerance, int kMin = kMinTileLog2) {
+    kMin = std::max(kMin, 1); // two samples a side at least (the interpolation below)
+    const int n = static_cast<int>(samples.size());
+    std::vector<int> k(static_cast<std::size_t>(n), kMax);
+    tbb::parallel_for(0, n, [&](int t) {
+        std::vector<double>& fine = samples[static_cast<std::size_t>(t)];
+        const int sf = 1 << kMax;
+        std::vector<double> best = fine;
+        for (int kk = kMax - 1; kk >= kMin; --kk) {
+            const int s = 1 << kk, r = sf / s;
+            std::vector<double> coarse(static_cast<std::size_t>(s * s), 0.0);
+            for (int j = 0; j < sf; ++j)
+                for (int i = 0; i < sf; ++i) coarse[static_cast<std::size_t>((j / r) * s + i / r)] += fine[static_cast<std::size_t>(j * sf + i)];
+            for (double& c : coarse) c /= static_cast<double>(r * r);
+            double err = 0.0;
+            for (int j = 0; j < sf && err <= tolerance; ++j)
+                for (int i = 0; i < sf; ++i) {
+                    // the fine centre in coarse sample coordinates
+                    const double x = std::clamp((i + 0.5) / r - 0.5, 0.0, s - 1.0), y = std::clamp((j + 0.5) / r - 0.5, 0.0, s - 1.0);
+                    const int x0 = std::min(static_cast<int>(x), s - 2), y0 = std::min(static_cast<int>(y), s - 2); // s >= 2
+                    const int x1 = x0 + 1, y1 = y0 + 1;
+                    const double fx = x - x0, fy = y - y0;
+                    auto at = [&](int a, int b) { return coarse[static_cast<std::size_t>(b * s + a)]; };
+                    const double v = (1 - fy) * ((1 - fx) * at(x0, y0) + fx * at(x1, y0)) + fy * ((1 - fx) * at(x0, y1) + fx * at(x1, y1));
+                    err = std::max(err, std::abs(v - fine[static_cast<std::size_t>(j * sf + i)]));
+                }
+            if (err > tolerance) break;
+            k[static_cast<std::size_t>(t)] = kk;
+            best = std::move(coarse);
+        }
+        fine = std::move(best);
+    });
+    return k;
+}
+
+/// A displacement source that returns the sample of the sub-patch holding (u, v): what the tile
+/// fit asks for at the sub-patch centres, from samples taken beforehand (in parallel).
+inline DisplacementFunction sampledSource(std::shared_ptr<const std::vector<std::vector<double>>> samples, std::vector<int> k) {
+    return [samples, k = std::move(k)](int face, double u, double v) {
+        const int s = 1 << k[static_cast<std::size_t>(face)];
+        const int i = std::clamp(static_cast<int>(u * s), 0, s - 1), j = std::clamp(static_cast<int>(v * s), 0, s - 1);
+        return (*samples)[static_cast<std::size_t>(face)][static_cast<std::size_t>(j * s + i)];
+    };
+}
+
+} // namespace dispmap
