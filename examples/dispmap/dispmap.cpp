@@ -38,6 +38,7 @@
 #include "swim.h"
 #include "parity.h"
 #include "render.h"
+#include "bake.h"
 #include "seams_table.h"
 
 using namespace dispmap;
@@ -525,6 +526,32 @@ int main(int argc, char** argv) {
     mesoCmd->add_option("--csv", ma.csv, "with --table: also write it as CSV");
     mesoCmd->add_option("--images", ma.images, "with --table: write the iteration pictures (PNG) to this folder");
     mesoCmd->add_option("--data", ma.data, "folder of the built-in scenes' images");
+    figures::BakeArgs ba;
+    ba.denseDir = DISPMAP_DENSE_DIR;
+    ba.skeletonDir = DISPMAP_SKELETON_DIR;
+    ba.dataDir = DISPMAP_EXAMPLE_DATA;
+    auto* bakeCmd = app.add_subcommand("bake", "bake a dense mesh (OBJ, PLY, OFF) into a base mesh (OBJ) and a tile file, with a "
+                                                "JSON report; or print the accuracy-vs-time table (--table)");
+    bakeCmd->add_option("input", ba.input, "the dense mesh (a scan or sculpt)");
+    bakeCmd->add_option("--skeleton", ba.skeleton, "skeleton route: joints and segments (JSON, docs/bake.md)");
+    bakeCmd->add_option("--base-faces", ba.baseFaces, "simplification route: decimate to N triangles first");
+    bakeCmd->add_option("--density", ba.density, "samples per base face edge (the tiles' size): 2, 4, 8, 16, ...");
+    bakeCmd->add_option("-o,--output", ba.output, "write the base mesh (OBJ)");
+    bakeCmd->add_option("--tiles", ba.tiles, "write the tiles here (default: the base mesh's name with .dmt)");
+    bakeCmd->add_option("--report", ba.report, "write the JSON report (errors, compression, seconds per stage, fitting)");
+    bakeCmd->add_option("--heatmap", ba.heatmap, "write the result as PLY coloured by its distance to the dense mesh (0..1 %)");
+    bakeCmd->add_option("--scene", ba.scene, "write a scene file that renders the result (dispmap render)");
+    bakeCmd->add_option("--threads", ba.threads, "threads (0: all cores)");
+    bakeCmd->add_option("--iterations", ba.iterations, "progressive fitting iterations at most");
+    bakeCmd->add_option("--fit-samples", ba.fitSamples, "fitting samples per base face edge");
+    bakeCmd->add_option("--shell", ba.shell, "the rays' reach, a fraction of the bounding-box diagonal");
+    bakeCmd->add_option("--normal-weight", ba.normalWeight, "weight of the normal in the fitting's nearest-point metric");
+    bakeCmd->add_flag("--quiet", ba.quiet, "no progress bars");
+    bakeCmd->add_flag("--table", ba.table, "the table: both routes, densities 4, 8, 16, on the dense meshes");
+    bakeCmd->add_flag("--quick", ba.quick, "with --table: one mesh, densities 4 and 8");
+    bakeCmd->add_option("--csv", ba.csv, "with --table: also write it as CSV");
+    bakeCmd->add_option("--dense-dir", ba.denseDir, "with --table: folder of the dense meshes");
+    bakeCmd->add_option("--skeleton-dir", ba.skeletonDir, "with --table: folder of their skeletons (<stem>.json)");
     CLI11_PARSE(app, argc, argv);
     try {
         if (*demoCmd) return demo(quick);
@@ -534,6 +561,7 @@ int main(int argc, char** argv) {
         if (*parityCmd) return runParity(pa);
         if (*renderCmd) return figures::renderCommand(ra);
         if (*mesoCmd) return mesoCommand(ma);
+        if (*bakeCmd) return figures::bakeCommand(ba);
         if (*benchCmd) {
             // Every table, or the one --only names (then no timings either).
             auto table = [&](const char* name, auto&& print) {
