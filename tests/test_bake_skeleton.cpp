@@ -197,7 +197,8 @@ struct IcmFacts {
 };
 
 /// Checks what every ICM must be: accepted by ControlMesh, closed (each directed edge once and
-/// its reverse once: manifold and consistently oriented), outward (positive volume), its
+/// its reverse once: manifold and consistently oriented), oriented as the dense mesh (positive
+/// volume for an outward one, `orient` 1; negative for an inward one, -1), its
 /// vertices on the dense surface (cut points) or inside it (hinge corners).
 IcmFacts checkIcm(const MeshDescription& d, const Target& t, double orient = 1.0) {
     IcmFacts f;
@@ -225,7 +226,7 @@ IcmFacts checkIcm(const MeshDescription& d, const Target& t, double orient = 1.0
         REQUIRE(back != directed.end());
     }
     f.edges = static_cast<int>(directed.size() / 2);
-    CHECK(f.volume > 0.0);
+    CHECK(orient * f.volume > 0.0);
     const double tol = 1e-5 * t.mesh.diagonal();
     for (const glm::dvec3& p : d.positions) {
         const RayScene::Closest c = t.scene->closest(glm::vec3(p));

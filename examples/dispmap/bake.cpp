@@ -66,11 +66,13 @@ struct Route {
     nlohmann::json details;
 };
 
-Route baseMesh(const DenseMesh& dense, const RayScene& scene, const std::string& skeletonPath, int baseFaces) {
+/// The ICM by the skeleton route (`skeleton` given; `skeletonPath` names it in the report) or by
+/// decimation to `baseFaces`.
+Route baseMesh(const DenseMesh& dense, const RayScene& scene, const Skeleton* skeleton, const std::string& skeletonPath, int baseFaces) {
     Route r;
     const auto t0 = std::chrono::steady_clock::now();
-    if (!skeletonPath.empty()) {
-        const Skeleton sk = readSkeleton(skeletonPath);
+    if (skeleton) {
+        const Skeleton& sk = *skeleton;
         SkeletonReport sr;
         r.icm = skeletonControlMesh(dense, scene, sk, {}, &sr);
         r.name = "skeleton";
@@ -96,6 +98,8 @@ BakeOptions bakeOptions(const BakeArgs& a) {
     o.fit.maxIterations = a.iterations;
     o.fit.samplesPerEdge = a.fitSamples;
     o.fit.normalWeight = a.normalWeight;
+    o.fit.twoSided = !a.oneSided;
+    o.adaptiveTolerance = a.adaptive;
     o.extract.shell = a.shell;
     return o;
 }
@@ -148,6 +152,19 @@ int bakeCommand(const BakeArgs& a) {
                                     "' does not exist");
         }
     checkBakeOptions(bakeOptions(args));
+    {
+        // Two outputs at one path: the later write would replace the earlier silently.
+        std::vector<std::pair<std::filesystem::path, std::string>> outs;
+        for (const std::string& p : {args.output, args.tiles, args.report, args.heatmap, args.scene})
+            if (!p.empty()) outs.emplace_back(std::filesystem::weakly_canonical(std::filesystem::absolute(p)), p);
+        for (std::size_t i = 0; i < outs.size(); ++i)
+            for (std::size_t k = i + 1; k < outs.size(); ++k)
+                if (outs[i].first == outs[k].first)
+                    throw ArgumentError("dispmap bake: '" + outs[i].second + "' and '" + outs[k].second + "' are the same file");
+    }
+    // The skeleton before the dense mesh: its errors cost nothing to find.
+    std::optional<Skeleton> skeleton;
+    if (!a.skeleton.empty()) skeleton = readSkeleton(a.skeleton);
     std::optional<tbb::global_control> threads;
     if (a.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(a.threads));
 
@@ -160,7 +177,7 @@ int bakeCommand(const BakeArgs& a) {
     const double readSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     bar("read", 1.0);
     bar("base", 0.0);
-    Route route = baseMesh(dense, scene, a.skeleton, a.baseFaces);
+    Route route = baseMesh(dense, scene, skeleton ? &*skeleton : nullptr, a.skeleton, a.baseFaces);
     bar("base", 1.0);
     BakeOptions options = bakeOptions(args);
     options.progress = [&](const std::string& s, double f) { bar(s, f); };
@@ -168,39 +185,44 @@ int bakeCommand(const BakeArgs& a) {
     res.report.threads = static_cast<int>(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
     res.report.stages.insert(res.report.stages.begin(), {{"read and BVH", readSeconds}, {"base mesh (" + route.name + ")", route.seconds}});
 
+    // Everything to write is made first (a failure there writes nothing), then written: the
+    // tiles before the mesh they belong to, the scene and report that name them last.
     const auto w0 = std::chrono::steady_clock::now();
-    writeObj(res.base, args.output);
-    saveTiles(res.tiles, args.tiles);
-    if (!args.heatmap.empty()) {
-        std::vector<glm::u8vec3> colours(res.resultError.size());
-        for (std::size_t i = 0; i < colours.size(); ++i) colours[i] = heat(res.resultError[i]);
-        writePly(res.result, args.heatmap, &colours);
-    }
+    std::string sceneText;
     if (!args.scene.empty()) {
         const std::string dir = std::filesystem::path(args.scene).parent_path().string();
-        const std::string text = toJson(bakeScene(args, dense, dir.empty() ? "." : dir));
-        detail::writeFileAtomically(args.scene, std::vector<unsigned char>(text.begin(), text.end()), "scene");
+        sceneText = toJson(bakeScene(args, dense, dir.empty() ? "." : dir));
     }
+    std::vector<glm::u8vec3> colours(res.resultError.size());
+    for (std::size_t i = 0; i < colours.size(); ++i) colours[i] = heat(res.resultError[i]);
+    saveTiles(res.tiles, args.tiles);
+    writeObj(res.base, args.output);
+    if (!args.heatmap.empty()) writePly(res.result, args.heatmap, &colours);
+    if (!sceneText.empty()) detail::writeFileAtomically(args.scene, std::vector<unsigned char>(sceneText.begin(), sceneText.end()), "scene");
     res.report.stages.push_back({"writing", std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count()});
     nlohmann::json j = bakeReportJson(res.report);
     j["base"]["route"] = route.details;
-    j["files"] = {{"base", args.output}, {"tiles", args.tiles}, {"base_bytes", std::filesystem::file_size(args.output)},
-                  {"tile_bytes", std::filesystem::file_size(args.tiles)}};
-    if (!args.report.empty()) {
-        const std::string text = j.dump(2) + "\n";
-        detail::writeFileAtomically(args.report, std::vector<unsigned char>(text.begin(), text.end()), "report");
-    }
+    std::error_code ec;
+    j["files"] = {{"base", args.output}, {"tiles", args.tiles}, {"base_bytes", std::filesystem::file_size(args.output, ec)},
+                  {"tile_bytes", tileFileBytes(res.tiles)}};
+    // Paths need not be UTF-8; JSON must be: invalid bytes become U+FFFD.
+    const std::string reportText = j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+    if (!args.report.empty())
+        detail::writeFileAtomically(args.report, std::vector<unsigned char>(reportText.begin(), reportText.end()), "report");
     const BakeReport& r = res.report;
     std::cout << std::setprecision(4) << "baked " << a.input << " (" << r.inputVertices << " vertices, " << r.inputTriangles
               << " triangles) by " << route.name << ": ICM " << r.icmFaces << " faces -> base " << r.baseFaces << " quads, "
-              << r.density << " x " << r.density << " samples per face\n"
-              << "  RMS " << r.rmsDenseToResult << " % (dense -> result), " << r.rmsResultToDense << " % (result -> dense); max "
+              << r.density << " x " << r.density << " samples per face\n";
+    if (route.name == "simplify" && r.icmFaces > 2 * a.baseFaces)
+        std::cout << "  (the decimation stopped at " << r.icmFaces << " faces of the " << a.baseFaces
+                  << " asked for: meshoptimizer keeps the scan's borders and topology)\n";
+    std::cout << "  RMS " << r.rmsDenseToResult << " % (dense -> result), " << r.rmsResultToDense << " % (result -> dense); max "
               << r.maxDenseToResult << " %, " << r.maxResultToDense << " % of the diagonal\n"
               << "  compression " << r.compressionRatio << " (paper's count), " << r.fileCompressionRatio << " (our files); "
               << r.extract.misses << " misses, " << r.extract.foldovers << " fold-overs of " << r.extract.samples << " samples\n"
               << "  " << j["seconds_total"].get<double>() << " s on " << r.threads << " threads, peak " << r.peakRssMiB << " MiB\n"
-              << "wrote " << args.output << ", " << args.tiles;
-    for (const std::string& p : {args.report, args.heatmap, args.scene})
+              << "wrote " << args.tiles << ", " << args.output;
+    for (const std::string& p : {args.heatmap, args.scene, args.report})
         if (!p.empty()) std::cout << ", " << p;
     std::cout << "\n";
     return 0;
@@ -218,7 +240,7 @@ struct TableInput {
 DenseMesh ownDenseMesh(const std::string& dataDir, int factor) {
     const ControlMesh mesh = ControlMesh::fromObjFile(dataDir + "/spot_control_mesh.obj");
     auto img = std::make_shared<HeightImage>(readHeightPng(dataDir + "/skimage_brick.png"));
-    const TileSet tiles = buildTiles(mesh, uniformTileSizes(mesh, 5), imageSource(mesh, img, 0.02, -0.01));
+    const TileSet tiles = buildTiles(mesh, uniformTileSizes(mesh, 5), imageSource(mesh, img, 0.02, -0.01, /*wrap=*/true));
     const BaseSurface base(mesh);
     const DisplacedSurface surface(base, tiles);
     TessellateOptions to;
@@ -266,20 +288,19 @@ void printBakeTable(std::ostream& out, const BakeArgs& a) {
     for (const TableInput& in : inputs) {
         const DenseMesh& dense = *in.dense;
         const RayScene scene(dense.positions, dense.triangles);
-        std::vector<std::pair<std::string, int>> routes; // (skeleton path or "", base faces)
+        std::vector<Route> routes;
         int faces = 256;
         if (!in.skeleton.empty()) {
-            const Route r = baseMesh(dense, scene, in.skeleton, 0);
-            faces = static_cast<int>(r.icm.faceSizes.size());
-            routes.push_back({in.skeleton, 0});
+            const Skeleton sk = readSkeleton(in.skeleton);
+            routes.push_back(baseMesh(dense, scene, &sk, in.skeleton, 0));
+            faces = static_cast<int>(routes.back().icm.faceSizes.size());
         }
-        routes.push_back({"", faces}); // simplification at the skeleton's face count (or 256)
+        routes.push_back(baseMesh(dense, scene, nullptr, "", faces)); // simplification at the skeleton's face count (or 256)
         if (!a.quick) {
-            routes.push_back({"", std::max(16, faces / 4)}); // a quarter: the paper's compression ratios
-            if (dense.positions.size() > 100000) routes.push_back({"", 1024});
+            routes.push_back(baseMesh(dense, scene, nullptr, "", std::max(16, faces / 4))); // a quarter: the paper's compression ratios
+            if (dense.positions.size() > 100000) routes.push_back(baseMesh(dense, scene, nullptr, "", 1024));
         }
-        for (const auto& [sk, n] : routes) {
-            const Route r = baseMesh(dense, scene, sk, n);
+        for (const Route& r : routes) {
             for (int sd : densities) {
                 BakeArgs ba = a;
                 ba.density = sd;
@@ -288,7 +309,7 @@ void printBakeTable(std::ostream& out, const BakeArgs& a) {
                 auto sec = [&](std::size_t i) { return i < rep.stages.size() ? rep.stages[i].seconds : 0.0; };
                 const double fit = sec(0) + sec(1), total = r.seconds + fit + sec(2) + sec(3); // the bake, not the measurement
                 const int its = static_cast<int>(rep.fit.iterations.size()) - 1;
-                const double fitRms = rep.fit.iterations.empty() ? 0.0 : rep.fit.iterations.back().rmsPercent;
+                const double fitRms = rep.fit.iterations.empty() ? 0.0 : rep.fit.result().rmsPercent;
                 out << std::left << std::setw(18) << in.name << std::setw(9) << r.name << std::right << std::setw(6) << rep.icmFaces
                     << std::setw(6) << rep.baseFaces << std::setw(4) << sd << std::setw(4) << its << std::fixed << std::setprecision(3)
                     << std::setw(8) << fitRms << std::setw(8) << rep.rmsDenseToResult << std::setw(8) << rep.maxDenseToResult << std::setw(8)
@@ -316,19 +337,25 @@ void printBakeTable(std::ostream& out, const BakeArgs& a) {
 
     // The knobs of the fit and of the tile sizes, one at a time, on one mesh (the bunny when
     // it is there, with its skeleton when it has one).
-    const TableInput& in = inputs.size() > 1 ? inputs[std::min<std::size_t>(2, inputs.size() - 1)] : inputs.front();
-    if (in.name == "spot+bricks") return;
+    const TableInput* pick = &inputs.front();
+    for (const TableInput& t : inputs)
+        if (t.name == "cgal_bunny00") pick = &t;
+    const TableInput& in = *pick;
     const DenseMesh& dense = *in.dense;
     const RayScene scene(dense.positions, dense.triangles);
-    const Route route = baseMesh(dense, scene, in.skeleton, 256);
+    std::optional<Skeleton> sk;
+    if (!in.skeleton.empty()) sk = readSkeleton(in.skeleton);
+    const Route route = baseMesh(dense, scene, sk ? &*sk : nullptr, in.skeleton, 256);
     struct Knob {
         std::string name;
         std::function<void(BakeOptions&)> set;
     };
     const std::vector<Knob> knobs = {
         {"paper: one-sided, 5 iterations", [](BakeOptions& o) { o.fit.twoSided = false; o.fit.maxIterations = 5; }},
+        {"one-sided, 8 iterations", [](BakeOptions& o) { o.fit.twoSided = false; o.fit.maxIterations = 8; }},
         {"one-sided, 30 iterations", [](BakeOptions& o) { o.fit.twoSided = false; }},
         {"two-sided, 5 iterations", [](BakeOptions& o) { o.fit.maxIterations = 5; }},
+        {"two-sided, 8 iterations", [](BakeOptions& o) { o.fit.maxIterations = 8; }},
         {"two-sided, 30 iterations (default)", [](BakeOptions&) {}},
         {"no interpolation step", [](BakeOptions& o) { o.fit.interpolationSteps = 0; }},
         {"fit samples 4 per edge", [](BakeOptions& o) { o.fit.samplesPerEdge = 4; }},
@@ -344,6 +371,7 @@ void printBakeTable(std::ostream& out, const BakeArgs& a) {
         << "RMSd>r" << std::setw(8) << "maxd>r" << std::setw(8) << "RMSr>d" << std::setw(8) << "maxr>d" << std::setw(9) << "samples"
         << std::setw(8) << "compr" << std::setw(7) << "fit s" << std::setw(8) << "total s" << "\n";
     for (const Knob& k : knobs) {
+        if (a.quick && k.name.find("fit samples") != std::string::npos) continue;
         BakeArgs ba = a;
         ba.density = 8;
         BakeOptions o = bakeOptions(ba);
@@ -352,7 +380,7 @@ void printBakeTable(std::ostream& out, const BakeArgs& a) {
         const BakeReport& rep = res.report;
         auto sec = [&](std::size_t i) { return i < rep.stages.size() ? rep.stages[i].seconds : 0.0; };
         out << std::left << std::setw(36) << k.name << std::right << std::setw(4) << static_cast<int>(rep.fit.iterations.size()) - 1
-            << std::fixed << std::setprecision(3) << std::setw(8) << rep.fit.iterations.back().rmsPercent << std::setw(8)
+            << std::fixed << std::setprecision(3) << std::setw(8) << rep.fit.result().rmsPercent << std::setw(8)
             << rep.rmsDenseToResult << std::setw(8) << rep.maxDenseToResult << std::setw(8) << rep.rmsResultToDense << std::setw(8)
             << rep.maxResultToDense << std::setprecision(0) << std::setw(9) << rep.tileTexels << std::setprecision(2) << std::setw(8)
             << rep.compressionRatio << std::setw(7) << sec(0) + sec(1) << std::setw(8) << route.seconds + sec(0) + sec(1) + sec(2) + sec(3)

@@ -10,8 +10,8 @@ namespace dispmap::figures {
 struct BakeArgs {
     std::string input, skeleton, output, tiles, report, heatmap, scene;
     int baseFaces = 0, density = 16, threads = 0, iterations = 30, fitSamples = 8;
-    double shell = 0.05, normalWeight = 0.05;
-    bool quiet = false;
+    double shell = 0.05, normalWeight = 0.05, adaptive = 0;
+    bool quiet = false, oneSided = false;
     // --table
     bool table = false, quick = false;
     std::string csv, denseDir, skeletonDir, dataDir;

@@ -546,6 +546,8 @@ int main(int argc, char** argv) {
     bakeCmd->add_option("--fit-samples", ba.fitSamples, "fitting samples per base face edge");
     bakeCmd->add_option("--shell", ba.shell, "the rays' reach, a fraction of the bounding-box diagonal");
     bakeCmd->add_option("--normal-weight", ba.normalWeight, "weight of the normal in the fitting's nearest-point metric");
+    bakeCmd->add_flag("--one-sided", ba.oneSided, "fit as the paper does: only the base surface's samples pull (docs/bake.md)");
+    bakeCmd->add_option("--adaptive", ba.adaptive, "tile sizes from the data: the error smaller tiles may add, x the diagonal (0: off)");
     bakeCmd->add_flag("--quiet", ba.quiet, "no progress bars");
     bakeCmd->add_flag("--table", ba.table, "the table: both routes, densities 4, 8, 16, on the dense meshes");
     bakeCmd->add_flag("--quick", ba.quick, "with --table: one mesh, densities 4 and 8");
@@ -581,6 +583,12 @@ int main(int argc, char** argv) {
             return figures::runBenchmarks(benchCmd->remaining());
         }
     } catch (const dispmap::Error& e) {
+        std::cerr << "dispmap: " << e.what() << "\n";
+        return 1;
+    } catch (const std::bad_alloc&) {
+        std::cerr << "dispmap: out of memory\n";
+        return 1;
+    } catch (const std::exception& e) { // a library's own exception (filesystem, JSON, TBB): a message, not an abort
         std::cerr << "dispmap: " << e.what() << "\n";
         return 1;
     }

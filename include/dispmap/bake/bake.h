@@ -43,7 +43,7 @@ struct BakeOptions {
     double adaptiveTolerance = 0;
     int isolation = 6;          ///< the base surface's isolation (BaseSurfaceOptions)
     MipFilter filter = MipFilter::Haar;
-    int measureFactor = 0;      ///< tessellation factor of the measured result; 0: 2 x density
+    int measureFactor = 0;      ///< tessellation factor of the measured result; 0: 2 x density (at most 64, and kMaxMeasureVertices)
     bool measure = true;        ///< measure the errors (the slowest stage on large meshes)
     /// Called with (stage, fraction done in [0, 1]) from the calling thread, for progress bars.
     std::function<void(const std::string&, double)> progress;
@@ -56,10 +56,11 @@ struct BakeStage {
 
 struct BakeReport {
     std::string input;
-    std::uint64_t inputVertices = 0, inputTriangles = 0, degenerateDropped = 0;
+    std::uint64_t inputVertices = 0, inputTriangles = 0, degenerateDropped = 0, weldedVertices = 0, unusedVertices = 0;
     double diagonal = 0;
     int icmVertices = 0, icmFaces = 0, baseVertices = 0, baseFaces = 0, density = 0;
     double tileTexels = 0; ///< samples over all tiles (less than baseFaces x density^2 with adaptive sizes)
+    int measureFactor = 0; ///< the tessellation factor of the measured result
     FitReport fit;
     ExtractReport extract;
     BuildReport tiles;
@@ -93,6 +94,10 @@ inline DenseMesh denseMeshOf(const TriangleMesh& t, std::string name) {
         for (int c = 0; c < 3; ++c) tris[i][static_cast<std::size_t>(c)] = static_cast<std::uint64_t>(t.triangles[i][c]);
     return makeDenseMesh(std::move(name), t.positions, tris, tris.size());
 }
+
+/// Most vertices of the measured tessellation (~200 bytes each with its BVH): the factor is
+/// lowered until the result fits.
+inline constexpr std::uint64_t kMaxMeasureVertices = std::uint64_t{8} << 20;
 
 /// Peak resident memory of this process so far (getrusage), MiB.
 inline double peakRssMiB() {
@@ -132,6 +137,8 @@ inline BakeResult bakeFromControlMesh(const DenseMesh& dense, const RayScene& sc
     rep.inputVertices = dense.positions.size();
     rep.inputTriangles = dense.triangles.size();
     rep.degenerateDropped = dense.stats.degenerateDropped;
+    rep.weldedVertices = dense.stats.weldedVertices;
+    rep.unusedVertices = dense.stats.unusedVertices;
     rep.diagonal = dense.diagonal();
     rep.density = options.density;
     auto clock = std::chrono::steady_clock::now();
@@ -163,10 +170,19 @@ inline BakeResult bakeFromControlMesh(const DenseMesh& dense, const RayScene& sc
     // Extraction along the base normals.
     progress("rays", 0.0);
     const ControlMesh mesh(res.base);
+    std::vector<int> ks = uniformTileSizes(mesh, k);
+    {
+        // The tile file the full density would make must be one saveTiles can write.
+        std::uint64_t floats = 0;
+        for (int kt : ks) floats += Tile::totalTexels(kt);
+        if (tileFileBytes(ks.size(), floats) > detail::kMaxTileFileBytes)
+            throw ArgumentError("bake: " + std::to_string(ks.size()) + " tiles of " + std::to_string(options.density) + " x " +
+                                std::to_string(options.density) + " samples would take " + std::to_string(tileFileBytes(ks.size(), floats) >> 20) +
+                                " MiB, more than a tile file may hold: fewer base faces or a lower density");
+    }
     BaseSurfaceOptions bo;
     bo.isolationLevel = options.isolation;
     const BaseSurface base(mesh, bo);
-    std::vector<int> ks = uniformTileSizes(mesh, k);
     auto samples = std::make_shared<std::vector<std::vector<double>>>(
         extractSamples(base, ks, scene, rep.diagonal, options.extract, &rep.extract));
     if (options.adaptiveTolerance > 0.0) {
@@ -202,7 +218,11 @@ inline BakeResult bakeFromControlMesh(const DenseMesh& dense, const RayScene& sc
         const DisplacedSurface surface(base, res.tiles, dso);
         TessellateOptions to;
         to.spacing = Spacing::Integer;
-        const int factor = options.measureFactor > 0 ? options.measureFactor : std::min(64, 2 * options.density);
+        // Twice the density, at most 64 (the hardware's limit) and at most kMaxMeasureVertices.
+        int factor = options.measureFactor > 0 ? options.measureFactor : std::min(64, 2 * options.density);
+        while (factor > 1 && static_cast<double>(rep.baseFaces) * (factor + 1.0) * (factor + 1.0) > static_cast<double>(kMaxMeasureVertices))
+            --factor;
+        rep.measureFactor = factor;
         res.result = Tessellator(surface, uniformTessFactors(base, factor), to).tessellate();
         rep.resultTriangles = res.result.triangles.size();
         std::vector<glm::vec3> rp(res.result.positions.size());
@@ -247,6 +267,8 @@ inline nlohmann::json bakeReportJson(const BakeReport& r) {
                   {"vertices", r.inputVertices},
                   {"triangles", r.inputTriangles},
                   {"degenerate_dropped", r.degenerateDropped},
+                  {"vertices_merged", r.weldedVertices},
+                  {"vertices_unused", r.unusedVertices},
                   {"diagonal", r.diagonal}};
     j["base"] = {{"icm_vertices", r.icmVertices},
                  {"icm_faces", r.icmFaces},
@@ -257,6 +279,7 @@ inline nlohmann::json bakeReportJson(const BakeReport& r) {
     j["rms_percent"] = {{"dense_to_result", r.rmsDenseToResult}, {"result_to_dense", r.rmsResultToDense}};
     j["max_percent"] = {{"dense_to_result", r.maxDenseToResult}, {"result_to_dense", r.maxResultToDense}};
     j["result_triangles"] = r.resultTriangles;
+    j["measure_factor"] = r.measureFactor;
     j["compression_ratio"] = r.compressionRatio;
     j["bytes"] = {{"input", r.inputBytes},
                   {"paper_representation", r.paperBytes},
@@ -272,7 +295,9 @@ inline nlohmann::json bakeReportJson(const BakeReport& r) {
     for (const FitIteration& f : r.fit.iterations)
         it.push_back({{"rms_percent", f.rmsPercent}, {"max_percent", f.maxPercent}, {"reverse_rms_percent", f.reverseRmsPercent}, {"seconds", f.seconds},
                        {"undone", f.undone}});
-    j["fitting"] = {{"samples", r.fit.samples}, {"iterations", it}};
+    j["fitting"] = {{"samples", r.fit.samples},
+                    {"iterations", it},
+                    {"result_rms_percent", r.fit.iterations.empty() ? 0.0 : r.fit.result().rmsPercent}};
     j["tile_fit"] = {{"sweeps", r.tiles.sweeps}, {"max_residual", r.tiles.maxResidual}};
     nlohmann::json st = nlohmann::json::object();
     double total = 0;

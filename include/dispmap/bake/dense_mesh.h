@@ -13,15 +13,19 @@
 //  * a NaN/Inf coordinate, or one beyond kMaxDenseCoordinate (squared distances must stay
 //    finite in float): an error naming the vertex;
 //  * a face index out of range: an error;
+//  * vertices at one (float) position are merged (a triangle soup gets its connectivity back);
 //  * a degenerate triangle (a repeated vertex or zero area in float) is dropped and counted
 //    (scans have them; they are no target), as are vertices that no triangle uses.
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cctype>
 #include <cstdint>
+#include <cstdlib>
 #include <filesystem>
 #include <mutex>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <assimp/DefaultLogger.hpp>
@@ -30,6 +34,7 @@
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 #include <glm/glm.hpp>
+#include <meshoptimizer.h>
 
 #include "dispmap/core/error.h"
 #include "dispmap/core/file_io.h"
@@ -46,6 +51,7 @@ struct DenseMeshStats {
     std::uint64_t polygons = 0;          ///< faces in the file
     std::uint64_t degenerateDropped = 0; ///< triangles with a repeated vertex or zero area
     std::uint64_t unusedVertices = 0;    ///< vertices no kept triangle refers to (removed)
+    std::uint64_t weldedVertices = 0;    ///< vertices at the position of an earlier one (merged into it)
 };
 
 struct DenseMesh {
@@ -79,23 +85,36 @@ inline DenseMesh makeDenseMesh(std::string name, std::vector<glm::dvec3> positio
                 throw MeshError(m.name + ": vertex " + std::to_string(i + 1) + " has coordinate " +
                                 std::to_string(positions[i][c]) +
                                 (std::isfinite(positions[i][c]) ? " beyond the limit of 1e18" : ", not a finite number"));
-    std::vector<std::uint32_t> remap(static_cast<std::size_t>(nv), UINT32_MAX);
+    if (nv > kMaxDenseTriangles)
+        throw MeshError(m.name + ": " + std::to_string(nv) + " vertices are more than the " + std::to_string(kMaxDenseTriangles) +
+                        " a dense mesh may have");
+    // Vertices at the same (float) position are one: a triangle soup (an STL converted to PLY,
+    // a scan exported per face) gets its connectivity back, and its normals become smooth.
+    std::vector<glm::vec3> fp(static_cast<std::size_t>(nv));
+    for (std::size_t i = 0; i < fp.size(); ++i) fp[i] = glm::vec3(positions[i]);
+    std::vector<unsigned> weld(fp.size());
+    const std::size_t unique = fp.empty() ? 0 : meshopt_generateVertexRemap(weld.data(), nullptr, fp.size(), fp.data(), fp.size(), sizeof(glm::vec3));
+    m.stats.weldedVertices = nv - unique;
+    std::vector<glm::vec3> wpos(unique);
+    for (std::size_t i = 0; i < fp.size(); ++i) wpos[weld[i]] = fp[i];
+    std::vector<std::uint32_t> remap(unique, UINT32_MAX);
     m.triangles.reserve(triangles.size());
     std::uint32_t used = 0;
     for (std::size_t t = 0; t < triangles.size(); ++t) {
-        const auto& tri = triangles[t];
-        for (std::uint64_t v : tri)
+        const auto& raw = triangles[t];
+        for (std::uint64_t v : raw)
             if (v >= nv)
                 throw MeshError(m.name + ": triangle " + std::to_string(t + 1) + " refers to vertex " + std::to_string(v + 1) +
                                 " of " + std::to_string(nv));
-        const glm::vec3 a(positions[tri[0]]), b(positions[tri[1]]), c(positions[tri[2]]);
-        if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2] || glm::length(glm::cross(b - a, c - a)) == 0.0f) {
+        const glm::uvec3 tri(weld[raw[0]], weld[raw[1]], weld[raw[2]]);
+        const glm::vec3 a = wpos[tri.x], b = wpos[tri.y], c = wpos[tri.z];
+        if (tri.x == tri.y || tri.y == tri.z || tri.x == tri.z || glm::length(glm::cross(b - a, c - a)) == 0.0f) {
             ++m.stats.degenerateDropped;
             continue;
         }
         glm::uvec3 out;
         for (int c2 = 0; c2 < 3; ++c2) {
-            std::uint32_t& r = remap[tri[static_cast<std::size_t>(c2)]];
+            std::uint32_t& r = remap[tri[c2]];
             if (r == UINT32_MAX) r = used++;
             out[c2] = r;
         }
@@ -106,14 +125,14 @@ inline DenseMesh makeDenseMesh(std::string name, std::vector<glm::dvec3> positio
     m.positions.resize(used);
     m.lo = glm::dvec3(std::numeric_limits<double>::infinity());
     m.hi = -m.lo;
-    for (std::uint64_t v = 0; v < nv; ++v) {
-        const std::uint32_t r = remap[static_cast<std::size_t>(v)];
+    for (std::size_t v = 0; v < unique; ++v) {
+        const std::uint32_t r = remap[v];
         if (r == UINT32_MAX) continue;
-        m.positions[r] = glm::vec3(positions[static_cast<std::size_t>(v)]);
+        m.positions[r] = wpos[v];
         m.lo = glm::min(m.lo, glm::dvec3(m.positions[r]));
         m.hi = glm::max(m.hi, glm::dvec3(m.positions[r]));
     }
-    m.stats.unusedVertices = nv - used;
+    m.stats.unusedVertices = unique - used;
     if (!(m.diagonal() > 0.0)) throw MeshError(m.name + ": all vertices lie at one point");
     return m;
 }
@@ -154,6 +173,69 @@ class AssimpErrors : public Assimp::LogStream {
     std::string first_;
 };
 
+/// Whether a PLY file holds less data than its header announces (assimp pads a short file with
+/// zeros instead of failing): "" if it holds enough, else why not. Only the sizes are checked:
+/// ASCII, one line per element at least; binary, every element's fixed-size properties, and
+/// for lists their count and at least three entries.
+inline std::string plyShortfall(const std::vector<unsigned char>& bytes) {
+    const std::string_view text(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+    const std::size_t end = text.find("end_header");
+    if (end == std::string_view::npos) return ""; // not a header assimp reads either: its error speaks
+    std::size_t body = text.find('\n', end);
+    body = body == std::string_view::npos ? text.size() : body + 1;
+    auto typeSize = [](std::string_view t) -> std::uint64_t {
+        if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
+        if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
+        if (t == "int" || t == "uint" || t == "float" || t == "int32" || t == "uint32" || t == "float32") return 4;
+        if (t == "double" || t == "float64") return 8;
+        return 0;
+    };
+    bool ascii = false;
+    std::uint64_t lines = 0, minBytes = 0, elements = 0;
+    std::uint64_t count = 0;
+    std::size_t pos = 0;
+    while (pos < end) {
+        std::size_t eol = text.find('\n', pos);
+        if (eol == std::string_view::npos || eol > end) eol = end;
+        std::string_view line = text.substr(pos, eol - pos);
+        pos = eol + 1;
+        std::vector<std::string_view> tok;
+        for (std::size_t i = 0; i < line.size();) {
+            while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
+            std::size_t j = i;
+            while (j < line.size() && !std::isspace(static_cast<unsigned char>(line[j]))) ++j;
+            if (j > i) tok.push_back(line.substr(i, j - i));
+            i = j;
+        }
+        if (tok.size() >= 2 && tok[0] == "format") ascii = tok[1] == "ascii";
+        if (tok.size() >= 3 && tok[0] == "element") {
+            count = std::strtoull(std::string(tok[2]).c_str(), nullptr, 10);
+            lines += count;
+            elements += count;
+        }
+        if (tok.size() >= 3 && tok[0] == "property") {
+            if (tok[1] == "list" && tok.size() >= 5) minBytes += count * (typeSize(tok[2]) + 3 * typeSize(tok[3]));
+            else minBytes += count * typeSize(tok[1]);
+        }
+    }
+    if (ascii) {
+        std::uint64_t have = 0;
+        for (std::size_t i = body; i < text.size();) {
+            std::size_t eol = text.find('\n', i);
+            if (eol == std::string_view::npos) eol = text.size();
+            if (text.substr(i, eol - i).find_first_not_of(" \t\r") != std::string_view::npos) ++have;
+            i = eol + 1;
+        }
+        if (have < lines)
+            return "the header announces " + std::to_string(lines) + " element lines, the file holds " + std::to_string(have) +
+                   " (truncated?)";
+    } else if (bytes.size() - body < minBytes) {
+        return "the header announces " + std::to_string(elements) + " elements needing at least " + std::to_string(minBytes) +
+               " bytes, the file holds " + std::to_string(bytes.size() - body) + " (truncated?)";
+    }
+    return "";
+}
+
 } // namespace detail
 
 /// Reads a dense mesh from an OBJ, PLY or OFF file (by extension, case-insensitive). Throws
@@ -166,21 +248,16 @@ inline DenseMesh readDenseMesh(const std::string& path) {
     std::vector<std::array<std::uint64_t, 3>> tris;
     std::uint64_t polygons = 0;
     if (ext == ".obj") {
-        const std::vector<unsigned char> bytes = detail::readFileBytes(path, "mesh file");
-        MeshDescription d = parseObj(std::string(bytes.begin(), bytes.end()), path);
-        std::size_t at = 0;
-        for (int n : d.faceSizes) {
-            for (int k = 1; k + 1 < n; ++k)
-                tris.push_back({static_cast<std::uint64_t>(d.faceVertices[at]),
-                                static_cast<std::uint64_t>(d.faceVertices[at + static_cast<std::size_t>(k)]),
-                                static_cast<std::uint64_t>(d.faceVertices[at + static_cast<std::size_t>(k) + 1])});
-            at += static_cast<std::size_t>(n);
-        }
-        polygons = d.faceSizes.size();
-        positions = std::move(d.positions);
+        TriangleSoup soup = readObjTriangles(path);
+        for (const std::array<int, 3>& t : soup.triangles)
+            tris.push_back({static_cast<std::uint64_t>(t[0]), static_cast<std::uint64_t>(t[1]), static_cast<std::uint64_t>(t[2])});
+        polygons = soup.polygons;
+        positions = std::move(soup.positions);
     } else if (ext == ".ply" || ext == ".off") {
         // The bytes go through our reader (regular files only, size capped) and then to assimp.
         const std::vector<unsigned char> bytes = detail::readFileBytes(path, "mesh file");
+        if (ext == ".ply")
+            if (const std::string why = detail::plyShortfall(bytes); !why.empty()) throw MeshError(path + ": " + why);
         Assimp::Importer importer;
         detail::AssimpErrors errors;
         // No post-processing: assimp's own steps would reorder or merge; our checks follow.

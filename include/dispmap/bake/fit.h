@@ -17,11 +17,15 @@
 //     so the fit would stall there on a scan sampled coarser than the detail.) Then move
 //     each control point by the weighted mean of its samples' difference vectors,
 //     Delta_i = sum_j w_ij delta_j / sum_j w_ij, with w_ij the limit stencil weight of control
-//     point i at sample j (OpenSubdiv's Far::LimitStencilTable: exact, where the paper used Loop
-//     & Schaefer's bicubic approximation). A uniform Laplacian smoothing follows the first update
-//     (the paper's guard against self-intersections; here of the update, see below). Stops when the RMS of |delta| is below
-//     rmsThreshold of the diagonal, after maxIterations, or when an iteration gains less than
-//     1 % (it cannot gain more: the nearest vertices then stay the same).
+//     point i at sample j (OpenSubdiv's Far::LimitStencilTable: B-spline patches, Gregory end caps
+//     around extraordinary vertices, where the paper used Loop & Schaefer's bicubic
+//     approximation everywhere). Two-sided (FitOptions::twoSided): a subset of the dense vertices
+//     also pull their nearest samples, so that the base surface grows into protrusions whose
+//     points are nobody's closest point. The first update is smoothed (the paper's Laplacian
+//     against self-intersections, applied to the update so that it does not shrink the mesh).
+//     Stops when the score (the RMS of |delta|, or with twoSided the root sum of squares of the
+//     two directions' RMS) is below rmsThreshold of the diagonal, after maxIterations, when an
+//     iteration gains less than 1 %, or when one makes it worse (that update is undone).
 // Every stage that is parallel in nature runs on all cores through TBB (the samples, the nearest
 // vertices, the control points' updates); the result does not depend on the thread count.
 #include <algorithm>
@@ -53,6 +57,10 @@ struct FitOptions {
     bool twoSided = true;        ///< also pull samples towards the dense vertices nearest to them (below)
 };
 
+/// Most fitting samples a fit takes (OpenSubdiv's stencil tables index with int; ~40 stencil
+/// entries per sample at 16 bytes each is ~10 GB here).
+inline constexpr std::uint64_t kMaxFitSamples = std::uint64_t{1} << 24;
+
 struct FitIteration {
     double rmsPercent = 0; ///< RMS of |delta|, % of the diagonal, before this iteration's update
     double maxPercent = 0; ///< max |delta|, % of the diagonal
@@ -62,8 +70,14 @@ struct FitIteration {
 };
 
 struct FitReport {
-    std::vector<FitIteration> iterations; ///< one per evaluation; the last is the result's error
+    std::vector<FitIteration> iterations; ///< one per evaluation (the last may be undone)
     long samples = 0;
+    /// The iteration whose mesh is the result: the last one not undone.
+    const FitIteration& result() const {
+        for (auto it = iterations.rbegin(); it != iterations.rend(); ++it)
+            if (!it->undone) return *it;
+        return iterations.front();
+    }
 };
 
 /// Nearest dense vertex in the 6D space (x, w n): a k-d tree (nanoflann) over the dense vertices.
@@ -80,6 +94,9 @@ class DenseVertexIndex {
         tree_ = std::make_unique<Tree>(6, *this, nanoflann::KDTreeSingleIndexAdaptorParams(16));
         tree_->buildIndex();
     }
+    // The tree holds a reference to this object (nanoflann's dataset): no copies, no moves.
+    DenseVertexIndex(const DenseVertexIndex&) = delete;
+    DenseVertexIndex& operator=(const DenseVertexIndex&) = delete;
     /// The dense vertex nearest to (p, w n) for a unit normal n.
     std::uint32_t nearest(const glm::dvec3& p, const glm::dvec3& n) const {
         const float q[6] = {static_cast<float>(p.x),           static_cast<float>(p.y),           static_cast<float>(p.z),
@@ -237,8 +254,13 @@ inline MeshDescription progressiveInterpolation(const MeshDescription& icm, int 
     return out;
 }
 
-/// One uniform Catmull-Clark step (Far): the all-quad mesh with the same limit surface.
+/// One uniform Catmull-Clark step (Far, double-precision weights): the all-quad mesh with the
+/// same limit surface. Throws ArgumentError for a mesh with creases, corners, holes or
+/// non-default rules (their refined form is not carried over; neither route makes them).
 inline MeshDescription catmullClarkStep(const MeshDescription& icm) {
+    if (!icm.creaseWeights.empty() || !icm.cornerWeights.empty() || !icm.holes.empty() ||
+        icm.creasing != Sdc::Options::CREASE_UNIFORM || icm.triangles != Sdc::Options::TRI_SUB_CATMARK)
+        throw ArgumentError(icm.name + ": a base mesh for baking may not have creases, corners, holes or non-default rules");
     const ControlMesh mesh(icm);
     std::unique_ptr<Far::TopologyRefiner> r = mesh.createRefiner();
     r->RefineUniform(Far::TopologyRefiner::UniformOptions(1));
@@ -246,11 +268,11 @@ inline MeshDescription catmullClarkStep(const MeshDescription& icm) {
     struct V {
         glm::dvec3 p{0};
         void Clear(void* = nullptr) { p = glm::dvec3(0.0); }
-        void AddWithWeight(const V& s, float w) { p += static_cast<double>(w) * s.p; }
+        void AddWithWeight(const V& s, double w) { p += w * s.p; }
     };
     std::vector<V> src(icm.positions.size()), dst(static_cast<std::size_t>(L1.GetNumVertices()));
     for (std::size_t i = 0; i < src.size(); ++i) src[i].p = icm.positions[i];
-    Far::PrimvarRefiner(*r).Interpolate(1, src, dst);
+    Far::PrimvarRefinerReal<double>(*r).Interpolate(1, src, dst);
     MeshDescription out;
     out.name = icm.name;
     out.boundary = icm.boundary;
@@ -270,6 +292,10 @@ inline MeshDescription fitToDense(const MeshDescription& ibm, const DenseMesh& d
         throw ArgumentError("fitting: samples per edge must be in [1, 64] and iterations >= 0");
     const ControlMesh mesh(ibm);
     const int m = options.samplesPerEdge;
+    if (static_cast<std::uint64_t>(mesh.ptexFaceCount()) * static_cast<std::uint64_t>(m * m) > kMaxFitSamples)
+        throw ArgumentError(ibm.name + ": " + std::to_string(mesh.ptexFaceCount()) + " faces x " + std::to_string(m * m) +
+                            " fitting samples are more than the " + std::to_string(kMaxFitSamples) +
+                            " a fit may take: fewer base faces or fewer fitting samples");
     std::vector<PtexLocation> at;
     at.reserve(static_cast<std::size_t>(mesh.ptexFaceCount() * m * m));
     for (int f = 0; f < mesh.ptexFaceCount(); ++f)

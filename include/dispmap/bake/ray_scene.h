@@ -71,7 +71,7 @@ class RayScene {
         rtcSetSceneFlags(scene_.get(), RTC_SCENE_FLAG_ROBUST);
         rtcSetSceneBuildQuality(scene_.get(), RTC_BUILD_QUALITY_HIGH);
         RTCGeometry g = rtcNewGeometry(device_.get(), RTC_GEOMETRY_TYPE_TRIANGLE);
-        // Embree reads vertex buffers 16 bytes at a time: one float of padding past the end.
+        // (rtcSetNewGeometryBuffer pads the buffer for Embree's 16-byte reads itself.)
         auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
                                                               3 * sizeof(float), positions_.size()));
         auto* ix = static_cast<std::uint32_t*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
@@ -153,13 +153,17 @@ class RayScene {
         auto* q = static_cast<Query*>(args->userPtr);
         const RayScene& s = *q->self;
         const glm::uvec3& t = s.triangles_[args->primID];
-        const glm::vec3 p(args->query->x, args->query->y, args->query->z);
-        const glm::vec3 c = closestPointOnTriangle(p, s.positions_[t.x], s.positions_[t.y], s.positions_[t.z]);
-        const float d = glm::length(c - p);
-        if (d < args->query->radius && d <= q->best.distance) {
+        // In double: Ericson's tests multiply dot products (fourth powers of the coordinates),
+        // which overflow float from about 1e10 on; double holds the whole accepted range.
+        const glm::dvec3 p(args->query->x, args->query->y, args->query->z);
+        const glm::dvec3 c = closestPointOnTriangle(p, glm::dvec3(s.positions_[t.x]), glm::dvec3(s.positions_[t.y]),
+                                                    glm::dvec3(s.positions_[t.z]));
+        const float d = static_cast<float>(glm::length(c - p));
+        // Equal distances go to the lower triangle index, whatever order the BVH visits them in.
+        if (d <= args->query->radius && (d < q->best.distance || (d == q->best.distance && args->primID < q->best.prim))) {
             args->query->radius = d;
             q->best.found = true;
-            q->best.point = c;
+            q->best.point = glm::vec3(c);
             q->best.distance = d;
             q->best.prim = args->primID;
             return true; // the radius shrank

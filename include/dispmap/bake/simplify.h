@@ -124,6 +124,7 @@ inline std::vector<glm::uvec3> splitPinchedVertices(std::vector<glm::uvec3> tris
 inline MeshDescription simplifiedControlMesh(const DenseMesh& dense, const SimplifyOptions& options = {},
                                              SimplifyReport* report = nullptr) {
     if (options.targetFaces < 4) throw ArgumentError("simplification: the base mesh needs at least 4 faces");
+    if (dense.triangles.empty() || dense.positions.empty()) throw ArgumentError("simplification: the dense mesh is empty");
     SimplifyReport rep;
     std::vector<unsigned> indices(dense.triangles.size() * 3);
     for (std::size_t i = 0; i < dense.triangles.size(); ++i)
@@ -157,10 +158,10 @@ inline MeshDescription simplifiedControlMesh(const DenseMesh& dense, const Simpl
     }
     std::map<std::uint32_t, int> size;
     for (const glm::uvec3& t : tris) ++size[find(t.x)];
+    for (const auto& [root, count] : size) rep.droppedComponents += count < options.minComponentTriangles ? 1 : 0;
     std::vector<glm::uvec3> kept;
     for (const glm::uvec3& t : tris)
         if (size[find(t.x)] >= options.minComponentTriangles) kept.push_back(t);
-        else ++rep.droppedComponents;
 
     MeshDescription d;
     d.name = dense.name + " (simplified to " + std::to_string(kept.size()) + " triangles)";

@@ -10,7 +10,8 @@
 //    segment leaves through its own face; the faces no segment leaves through stay in the ICM;
 //  * pipes: along every segment, a band of quads (triangles where the two ends have different
 //    numbers of vertices) joining its two ends (cut or hinge face).
-// The result is a closed polygon mesh, oriented outward, that ControlMesh accepts; it is the
+// The result is a closed polygon mesh, oriented as the dense mesh is (outward for a dense mesh
+// whose triangles face out), that ControlMesh accepts; it is the
 // start of a fit (the paper subdivides it once into the all-quad initial base mesh).
 //
 // Skeleton file: JSON {"joints": [[x, y, z], ...], "segments": [[a, b], ...]} with 0-based
@@ -772,6 +773,12 @@ inline MeshDescription skeletonControlMesh(const DenseMesh& dense, const RayScen
     if (!(volume > 0.0))
         skeletonFail(s.name, "the control mesh built along it is inside out (its signed volume is not positive): check "
                              "that the joints lie along the middle of the mesh's limbs");
+    // A dense mesh stored inward-facing gets an inward-facing control mesh: the fit and the rays
+    // compare the base surface's normals with the dense triangles' own.
+    if (orient < 0.0)
+        for (std::size_t f = 0, o = 0; f < d.faceSizes.size(); o += static_cast<std::size_t>(d.faceSizes[f]), ++f)
+            std::reverse(d.faceVertices.begin() + static_cast<std::ptrdiff_t>(o),
+                         d.faceVertices.begin() + static_cast<std::ptrdiff_t>(o + static_cast<std::size_t>(d.faceSizes[f])));
     try {
         ControlMesh check(d);
     } catch (const MeshError& e) {

@@ -143,12 +143,8 @@ struct ByteReader {
 
 } // namespace detail
 
-/// Writes tiles to path in the tile file format above, atomically. Throws ArgumentError
-/// (naming the tile) if a tile has k outside [kMinTileLog2, kMaxTileLog2], a size difference
-/// above k - kMinTileLog2, coefficients.size() != Tile::totalTexels(k), a NaN/Inf
-/// coefficient or a file above detail::kMaxTileFileBytes (nothing is written then), and FileError if the file cannot be written.
 /// The size of the file saveTiles writes for `tiles` tiles holding `floats` coefficients in all:
-/// magic and version (12), header, one record per tile, the coefficients, the CRC.
+/// magic, version and header size (16), the header, one record per tile, the coefficients, the CRC.
 inline std::uint64_t tileFileBytes(std::uint64_t tiles, std::uint64_t floats) {
     return 16 + detail::kTileFileHeaderBytes + detail::kTileFileRecordBytes * tiles + 4 * floats + 4;
 }
@@ -158,6 +154,10 @@ inline std::uint64_t tileFileBytes(const TileSet& tiles) {
     return tileFileBytes(tiles.tiles.size(), floats);
 }
 
+/// Writes tiles to path in the tile file format above, atomically. Throws ArgumentError
+/// (naming the tile) if a tile has k outside [kMinTileLog2, kMaxTileLog2], a size difference
+/// above k - kMinTileLog2, coefficients.size() != Tile::totalTexels(k), a NaN/Inf
+/// coefficient or a file above detail::kMaxTileFileBytes (nothing is written then), and FileError if the file cannot be written.
 inline void saveTiles(const TileSet& tiles, const std::string& path) {
     const auto invalid = [&](std::size_t i, const std::string& why) {
         return ArgumentError("saveTiles('" + path + "'): tile " + std::to_string(i) + ": " + why);

@@ -531,7 +531,8 @@ inline std::string toJson(const Scene& s) {
                       {"max", e.maxFactor},
                       {"spacing", detail::sceneChoiceName(detail::kSceneSpacings, e.spacing)}}},
                     {"wireframe", e.wireframe}};
-    return j.dump(2) + "\n";
+    // Paths need not be UTF-8; JSON must be: invalid bytes become U+FFFD.
+    return j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 
 /// `path` resolved against the scene's directory (absolute paths and an empty baseDir leave

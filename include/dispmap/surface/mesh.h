@@ -541,6 +541,7 @@ inline MeshDescription parseObj(const std::string& text, const std::string& name
 struct TriangleSoup {
     std::vector<glm::dvec3> positions;
     std::vector<std::array<int, 3>> triangles;
+    std::size_t polygons = 0; ///< faces in the file
 };
 inline TriangleSoup readObjTriangles(const std::string& path) {
     const std::vector<unsigned char> bytes = detail::readFileBytes(path, "mesh file");
@@ -554,6 +555,7 @@ inline TriangleSoup readObjTriangles(const std::string& path) {
         at += static_cast<std::size_t>(n);
     }
     out.positions = std::move(m.positions);
+    out.polygons = m.faceSizes.size();
     return out;
 }
 
@@ -729,7 +731,9 @@ inline ControlMesh ControlMesh::fromObjFile(const std::string& path) {
 /// topologyHash. Boundary rule, creases, corners, holes and the non-default rules are written as
 /// OpenSubdiv's `t` tags; texture coordinates are not written. Throws FileError naming the path.
 inline void writeObj(const MeshDescription& d, const std::string& path) {
-    std::string s = "# " + d.name + ": " + std::to_string(d.positions.size()) + " vertices, " +
+    std::string name = d.name; // one comment line, whatever the name holds
+    std::replace_if(name.begin(), name.end(), [](char c) { return c == '\n' || c == '\r'; }, ' ');
+    std::string s = "# " + name + ": " + std::to_string(d.positions.size()) + " vertices, " +
                     std::to_string(d.faceSizes.size()) + " faces\n";
     for (const glm::dvec3& p : d.positions) {
         s += "v";
