@@ -156,6 +156,9 @@ TEST_CASE("bad dense meshes get a clear error; degenerate triangles are dropped 
     REQUIRE_THROWS_WITH(readDenseMesh(file("flat.off", "OFF\n3 2 0\n0 0 0\n1 0 0\n2 0 0\n3 0 1 2\n3 0 0 1\n")),
                         Contains("degenerate"));
     REQUIRE_THROWS_WITH(readDenseMesh(file("garbage.ply", "ply\nthis is not a header\n")), Contains("garbage.ply"));
+    REQUIRE_THROWS_WITH(readDenseMesh(file("cloud.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                                        "property float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n")),
+                        Contains("no faces"));
     REQUIRE_THROWS_WITH(readDenseMesh(file("mesh.stl", "solid x\nendsolid x\n")), Contains("unknown dense mesh format"));
     REQUIRE_THROWS_WITH(readDenseMesh(dir.file("missing.obj")), Contains("missing.obj"));
     REQUIRE_THROWS_WITH(readDenseMesh(dir.path.string() + "/"), Contains("format") || Contains("regular file"));

@@ -6,7 +6,6 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <functional>
 #include <iomanip>
 #include <iostream>
@@ -265,10 +264,9 @@ void printBakeTable(std::ostream& out, const BakeArgs& a) {
     if (!a.quick) inputs.push_back({"spot+bricks", std::make_shared<DenseMesh>(ownDenseMesh(a.dataDir, 40)), ""});
     if (inputs.empty()) throw ArgumentError("dispmap bake --table: no dense meshes in '" + denseDir + "' (--dense-dir)");
 
-    std::ofstream csv;
+    std::ostringstream csv;
     if (!a.csv.empty()) {
         detail::checkOutputPath(a.csv, "CSV table");
-        csv.open(a.csv);
         csv << "model,vertices,route,icm_faces,base_faces,density,fit_iterations,fit_rms_percent,rms_dense_to_result,max_dense_to_result,"
                "rms_result_to_dense,max_result_to_dense,compression_paper,compression_files,misses,foldovers,s_base,s_fit,s_rays,s_tiles,"
                "s_measure,s_total,peak_rss_mib\n";
@@ -318,7 +316,7 @@ void printBakeTable(std::ostream& out, const BakeArgs& a) {
                     << rep.extract.foldovers << std::setw(7) << r.seconds << std::setw(7) << fit << std::setw(7) << sec(2) << std::setw(7)
                     << sec(3) << std::setw(8) << total << std::setw(8) << sec(4) << std::setprecision(0) << std::setw(7) << rep.peakRssMiB
                     << std::defaultfloat << "\n";
-                if (csv)
+                if (!a.csv.empty())
                     csv << in.name << ',' << dense.positions.size() << ',' << r.name << ',' << rep.icmFaces << ',' << rep.baseFaces << ','
                         << sd << ',' << its << ',' << fitRms << ',' << rep.rmsDenseToResult << ',' << rep.maxDenseToResult << ','
                         << rep.rmsResultToDense << ',' << rep.maxResultToDense << ',' << rep.compressionRatio << ','
@@ -327,6 +325,10 @@ void printBakeTable(std::ostream& out, const BakeArgs& a) {
             }
         }
         out << "  (" << in.name << ": " << dense.positions.size() << " vertices, " << dense.triangles.size() << " triangles)\n";
+    }
+    if (!a.csv.empty()) {
+        const std::string text = csv.str();
+        detail::writeFileAtomically(a.csv, std::vector<unsigned char>(text.begin(), text.end()), "CSV table");
     }
     out << "\nThe paper's Table 2 (Huang & Feng 2017; skeleton route, GTX 570; RMS from the input to the result):\n"
         << "  bunny     124k vertices, ICM 144 faces:  sd 4: RMS 0.225 %, compression 86.7; sd 8: 0.123 %, 29.6; sd 16: 0.070 %, 8.6;"

@@ -1,7 +1,7 @@
 #pragma once
 // `dispmap bake`: a dense mesh (scan, sculpt) to a base mesh (OBJ) + tile file + JSON report,
 // by the simplification route (--base-faces) or the skeleton route (--skeleton); and
-// `dispmap bake --table`, the accuracy-vs-time table of docs/figures.md ("Baking").
+// `dispmap bake --table`, the accuracy-vs-time tables of docs/figures.md ("Baking a dense mesh").
 #include <ostream>
 #include <string>
 

@@ -7,7 +7,7 @@
 //   -> extraction     bake/extract.h: rays along +-N from every tile sample (Embree)
 //   -> tiles          surface/tile_builder.h: the biquadratic fit with the Doo-Sabin corners
 //                     and mips, as for any other displacement source
-//   -> measurement    the displaced surface tessellated at the sample density; distances from
+//   -> measurement    the displaced surface tessellated at twice the density; distances from
 //                     every dense vertex to it and from every one of its vertices to the dense
 //                     mesh (Embree closest points), RMS and max in % of the bounding-box diagonal
 // bakeFromControlMesh runs everything after the ICM; docs/bake.md describes the whole.

@@ -49,7 +49,7 @@ inline constexpr std::uint64_t kMaxDenseTriangles = std::uint64_t{1} << 30;
 
 struct DenseMeshStats {
     std::uint64_t polygons = 0;          ///< faces in the file
-    std::uint64_t degenerateDropped = 0; ///< triangles with a repeated vertex or zero area
+    std::uint64_t degenerateDropped = 0; ///< triangles with a repeated vertex or zero area, and faces of 1 or 2 vertices
     std::uint64_t unusedVertices = 0;    ///< vertices no kept triangle refers to (removed)
     std::uint64_t weldedVertices = 0;    ///< vertices at the position of an earlier one (merged into it)
 };
@@ -246,7 +246,7 @@ inline DenseMesh readDenseMesh(const std::string& path) {
     for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
     std::vector<glm::dvec3> positions;
     std::vector<std::array<std::uint64_t, 3>> tris;
-    std::uint64_t polygons = 0;
+    std::uint64_t polygons = 0, pointsAndLines = 0;
     if (ext == ".obj") {
         TriangleSoup soup = readObjTriangles(path);
         for (const std::array<int, 3>& t : soup.triangles)
@@ -272,9 +272,10 @@ inline DenseMesh readDenseMesh(const std::string& path) {
             for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
                 const aiFace& face = mesh->mFaces[f];
                 ++polygons;
-                if (face.mNumIndices < 3)
-                    throw MeshError(path + ": face " + std::to_string(polygons) + " has " + std::to_string(face.mNumIndices) +
-                                    " vertices; a face needs at least 3");
+                if (face.mNumIndices < 3) { // a point or a line (assimp's point clouds): no surface
+                    ++pointsAndLines;
+                    continue;
+                }
                 for (unsigned k = 1; k + 1 < face.mNumIndices; ++k)
                     tris.push_back({base + face.mIndices[0], base + face.mIndices[k], base + face.mIndices[k + 1]});
             }
@@ -282,7 +283,11 @@ inline DenseMesh readDenseMesh(const std::string& path) {
     } else {
         throw ArgumentError(path + ": unknown dense mesh format '" + ext + "' (OBJ, PLY or OFF)");
     }
-    return makeDenseMesh(path, std::move(positions), tris, polygons);
+    if (tris.empty() && pointsAndLines > 0)
+        throw MeshError(path + ": the mesh has no faces, only " + std::to_string(pointsAndLines) + " points or lines (a point cloud?)");
+    DenseMesh m = makeDenseMesh(path, std::move(positions), tris, polygons);
+    m.stats.degenerateDropped += pointsAndLines;
+    return m;
 }
 
 /// Area-weighted vertex normals (unit; a vertex whose triangles cancel gets (0, 0, 0)).

@@ -107,30 +107,6 @@ inline std::string skeletonSegment(const Skeleton& s, int k) {
     return "segment " + std::to_string(k) + " [" + std::to_string(g[0]) + ", " + std::to_string(g[1]) + "]";
 }
 
-/// Where in `text` JSON arrays/objects nest deeper than `limit` (npos if they do not): the
-/// parser recurses per level, so a hostile file of a million '[' must be refused before it.
-/// Strings and comments are skipped (their brackets do not count).
-inline std::size_t skeletonJsonTooDeepAt(std::string_view text, int limit) {
-    int depth = 0;
-    for (std::size_t i = 0; i < text.size(); ++i) {
-        const char c = text[i];
-        if (c == '"') {
-            for (++i; i < text.size() && text[i] != '"'; ++i)
-                if (text[i] == '\\') ++i;
-        } else if (c == '/' && i + 1 < text.size() && text[i + 1] == '/') {
-            while (i < text.size() && text[i] != '\n') ++i;
-        } else if (c == '/' && i + 1 < text.size() && text[i + 1] == '*') {
-            const std::size_t end = text.find("*/", i + 2);
-            i = end == std::string_view::npos ? text.size() : end + 1;
-        } else if (c == '[' || c == '{') {
-            if (++depth > limit) return i;
-        } else if (c == ']' || c == '}') {
-            --depth;
-        }
-    }
-    return std::string_view::npos;
-}
-
 /// The checks that need no mesh: see the top of this file. Called by parseSkeleton and by
 /// skeletonControlMesh (a Skeleton may be built in code).
 inline void checkSkeleton(const Skeleton& s) {
@@ -543,7 +519,7 @@ inline void skeletonBand(MeshDescription& d, const Skeleton& s, int k, const Ske
 inline Skeleton parseSkeleton(const std::string& text, const std::string& name) {
     using Json = nlohmann::json;
     using detail::skeletonFail;
-    if (const std::size_t at = detail::skeletonJsonTooDeepAt(text, 16); at != std::string_view::npos)
+    if (const std::size_t at = detail::jsonTooDeepAt(text, 16); at != std::string_view::npos)
         skeletonFail(name, "invalid JSON: arrays and objects nest deeper than 16 levels (at byte " + std::to_string(at) + ")");
     Json j;
     try {

@@ -10,6 +10,7 @@
 #include <memory>
 #include <random>
 #include <string>
+#include <string_view>
 #include <system_error>
 #include <vector>
 
@@ -141,4 +142,31 @@ inline void writeFileAtomically(const std::string& path, const std::vector<unsig
         throw fail("cannot rename the temporary file over it: " + ec.message());
     }
 }
+
+// Where a JSON text nests arrays and objects deeper than maxDepth (the byte offset of the
+// bracket that goes too deep), or npos. Brackets inside strings and comments do not count;
+// a malformed text is left for the parser to report. (A check before nlohmann-json parses: its
+// parser recurses per level, so a hostile file of a million '[' must be refused first.)
+inline std::size_t jsonTooDeepAt(std::string_view text, int maxDepth) {
+    int depth = 0;
+    for (std::size_t i = 0; i < text.size(); ++i) {
+        const char c = text[i];
+        if (c == '"') {
+            for (++i; i < text.size() && text[i] != '"'; ++i)
+                if (text[i] == '\\') ++i;
+        } else if (c == '/' && i + 1 < text.size() && text[i + 1] == '/') {
+            while (i < text.size() && text[i] != '\n') ++i;
+        } else if (c == '/' && i + 1 < text.size() && text[i + 1] == '*') {
+            const std::size_t end = text.find("*/", i + 2);
+            if (end == std::string_view::npos) return std::string_view::npos;
+            i = end + 1;
+        } else if (c == '[' || c == '{') {
+            if (++depth > maxDepth) return i;
+        } else if ((c == ']' || c == '}') && depth > 0) {
+            --depth;
+        }
+    }
+    return std::string_view::npos;
+}
+
 } // namespace dispmap::detail
