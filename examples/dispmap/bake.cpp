@@ -34,9 +34,10 @@ namespace {
 /// A progress bar on stderr, one line per stage, redrawn in place when stderr is a terminal.
 struct ProgressBar {
     bool enabled = true, tty = isatty(2) != 0;
-    std::string current;
+    std::string current, finished;
     void operator()(const std::string& stage, double f) {
-        if (!enabled) return;
+        if (!enabled || (f >= 1.0 && stage == finished)) return; // a stage reports its end once
+        if (f >= 1.0) finished = stage;
         if (stage != current && !current.empty() && tty) std::cerr << "\n";
         current = stage;
         if (!tty && f > 0.0 && f < 1.0) return; // in a log: start and end only

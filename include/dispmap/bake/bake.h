@@ -11,10 +11,12 @@
 //                     every dense vertex to it and from every one of its vertices to the dense
 //                     mesh (Embree closest points), RMS and max in % of the bounding-box diagonal
 // bakeFromControlMesh runs everything after the ICM; docs/bake.md describes the whole.
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -45,7 +47,8 @@ struct BakeOptions {
     MipFilter filter = MipFilter::Haar;
     int measureFactor = 0;      ///< tessellation factor of the measured result; 0: 2 x density (at most 64, and kMaxMeasureVertices)
     bool measure = true;        ///< measure the errors (the slowest stage on large meshes)
-    /// Called with (stage, fraction done in [0, 1]) from the calling thread, for progress bars.
+    /// Called with (stage, fraction done in [0, 1]) for progress bars: from the calling thread or
+    /// a worker thread, one call at a time.
     std::function<void(const std::string&, double)> progress;
 };
 
@@ -160,7 +163,7 @@ inline BakeResult bakeFromControlMesh(const DenseMesh& dense, const RayScene& sc
     const MeshDescription ibm = catmullClarkStep(interpolated);
     stage("base mesh (interpolation, Catmull-Clark step)");
     const DenseVertexIndex index(dense, options.fit.normalWeight);
-    res.base = fitToDense(ibm, dense, scene, index, options.fit, &rep.fit);
+    res.base = fitToDense(ibm, dense, scene, index, options.fit, &rep.fit, [&](double f) { progress("fit", f); });
     res.base.name = dense.name + " (baked base mesh)";
     rep.baseVertices = static_cast<int>(res.base.positions.size());
     rep.baseFaces = static_cast<int>(res.base.faceSizes.size());
@@ -184,7 +187,7 @@ inline BakeResult bakeFromControlMesh(const DenseMesh& dense, const RayScene& sc
     bo.isolationLevel = options.isolation;
     const BaseSurface base(mesh, bo);
     auto samples = std::make_shared<std::vector<std::vector<double>>>(
-        extractSamples(base, ks, scene, rep.diagonal, options.extract, &rep.extract));
+        extractSamples(base, ks, scene, rep.diagonal, options.extract, &rep.extract, [&](double f) { progress("rays", f); }));
     if (options.adaptiveTolerance > 0.0) {
         for (int f = 0; f < mesh.base().GetNumFaces(); ++f)
             if (mesh.base().GetFaceVertices(f).size() != 4)
@@ -233,14 +236,26 @@ inline BakeResult bakeFromControlMesh(const DenseMesh& dense, const RayScene& sc
         std::vector<float> toResult(dense.positions.size());
         res.resultError.assign(rp.size(), 0.0f);
         const double unit = 100.0 / rep.diagonal;
+        // Progress every 2 % of the queries, from whichever thread crosses the mark.
+        const std::size_t queries = toResult.size() + rp.size();
+        std::atomic<std::size_t> done{0};
+        std::mutex progressMutex;
+        auto advance = [&](std::size_t n) {
+            const std::size_t after = done += n, before = after - n;
+            if (after * 50 / queries != before * 50 / queries) {
+                const std::lock_guard<std::mutex> lock(progressMutex);
+                progress("measure", static_cast<double>(after) / static_cast<double>(queries));
+            }
+        };
         tbb::parallel_for(tbb::blocked_range<std::size_t>(0, toResult.size(), 1024), [&](const tbb::blocked_range<std::size_t>& r) {
             for (std::size_t i = r.begin(); i != r.end(); ++i)
                 toResult[i] = static_cast<float>(static_cast<double>(resultScene.closest(dense.positions[i]).distance) * unit);
+            advance(r.size());
         });
-        progress("measure", 0.5);
         tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rp.size(), 1024), [&](const tbb::blocked_range<std::size_t>& r) {
             for (std::size_t i = r.begin(); i != r.end(); ++i)
                 res.resultError[i] = static_cast<float>(static_cast<double>(scene.closest(rp[i]).distance) * unit);
+            advance(r.size());
         });
         auto stats = [](const std::vector<float>& e, double& rms, double& mx) {
             double s = 0.0;

@@ -17,7 +17,9 @@
 //  D continuous with the neighbouring hits where the fold or hole is small.
 #include <atomic>
 #include <cmath>
+#include <functional>
 #include <memory>
+#include <mutex>
 #include <vector>
 
 #include <tbb/parallel_for.h>
@@ -66,13 +68,18 @@ inline Side nearestFacing(const RayScene& scene, const glm::vec3& org, const glm
 } // namespace detail
 
 /// The samples of every tile (row-major, s = 2^k[t] per side), in tile order.
+/// `progress` (if set) receives the fraction of tiles done, from any thread, one call at a time,
+/// every 2 %.
 inline std::vector<std::vector<double>> extractSamples(const BaseSurface& base, const std::vector<int>& k,
                                                        const RayScene& dense, double diagonal,
-                                                       const ExtractOptions& options = {}, ExtractReport* report = nullptr) {
+                                                       const ExtractOptions& options = {}, ExtractReport* report = nullptr,
+                                                       const std::function<void(double)>& progress = {}) {
     if (!(options.shell > 0.0) || !std::isfinite(options.shell)) throw ArgumentError("extraction: the shell must be > 0");
     const int n = static_cast<int>(k.size());
     std::vector<std::vector<double>> out(static_cast<std::size_t>(n));
     std::atomic<long> hits{0}, misses{0}, folds{0}, total{0};
+    std::atomic<int> tilesDone{0};
+    std::mutex progressMutex;
     const float shell = static_cast<float>(options.shell * diagonal);
     tbb::parallel_for(0, n, [&](int t) {
         const int s = 1 << k[static_cast<std::size_t>(t)];
@@ -110,6 +117,13 @@ inline std::vector<std::vector<double>> extractSamples(const BaseSurface& base, 
         hits += h;
         misses += m;
         folds += f;
+        if (progress) {
+            const int done = ++tilesDone;
+            if (done * 50 / n != (done - 1) * 50 / n) {
+                const std::lock_guard<std::mutex> lock(progressMutex);
+                progress(static_cast<double>(done) / n);
+            }
+        }
     });
     if (report) {
         report->hits = hits;

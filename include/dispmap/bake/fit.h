@@ -31,6 +31,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -286,8 +287,11 @@ inline MeshDescription catmullClarkStep(const MeshDescription& icm) {
 }
 
 /// Progressive fitting of `ibm` to the dense mesh (step 3 above). Returns the moved mesh.
+/// `progress` (if set) receives the fraction of maxIterations done after each iteration, from
+/// the calling thread.
 inline MeshDescription fitToDense(const MeshDescription& ibm, const DenseMesh& dense, const RayScene& scene,
-                                  const DenseVertexIndex& index, const FitOptions& options = {}, FitReport* report = nullptr) {
+                                  const DenseVertexIndex& index, const FitOptions& options = {}, FitReport* report = nullptr,
+                                  const std::function<void(double)>& progress = {}) {
     if (options.samplesPerEdge < 1 || options.samplesPerEdge > 64 || options.maxIterations < 0)
         throw ArgumentError("fitting: samples per edge must be in [1, 64] and iterations >= 0");
     const ControlMesh mesh(ibm);
@@ -448,6 +452,7 @@ inline MeshDescription fitToDense(const MeshDescription& ibm, const DenseMesh& d
         fi.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         rep.iterations.push_back(fi);
         if (stop) break;
+        if (progress && options.maxIterations > 0) progress(static_cast<double>(it + 1) / options.maxIterations);
     }
     if (report) *report = rep;
     return out;
