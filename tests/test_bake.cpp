@@ -167,6 +167,9 @@ TEST_CASE("bad dense meshes get a clear error; degenerate triangles are dropped 
                                                         "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
                                                         "end_header\n0 0 0\n1 0 0\n")),
                         Contains("truncated"));
+    REQUIRE_THROWS_WITH(readDenseMesh(file("huge.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 18446744073709551615\n"
+                                                       "property float x\nproperty float y\nproperty float z\nend_header\n")),
+                        Contains("more than a file of"));
     {
         const TriangleMesh sphere = uvSphere(12, 6, 1.0);
         writePly(sphere, dir.file("full.ply"));

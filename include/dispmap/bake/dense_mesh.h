@@ -210,6 +210,10 @@ inline std::string plyShortfall(const std::vector<unsigned char>& bytes) {
         if (tok.size() >= 2 && tok[0] == "format") ascii = tok[1] == "ascii";
         if (tok.size() >= 3 && tok[0] == "element") {
             count = std::strtoull(std::string(tok[2]).c_str(), nullptr, 10);
+            // every element takes a byte at least: a larger count is a lie (and would overflow below)
+            if (count > bytes.size())
+                return "the header announces " + std::string(tok[2]) + " " + std::string(tok[1]) + " elements, more than a file of " +
+                       std::to_string(bytes.size()) + " bytes can hold";
             lines += count;
             elements += count;
         }
