@@ -149,7 +149,8 @@ inline LimitStencils limitStencils(const ControlMesh& mesh, const std::vector<Pt
     std::unique_ptr<Far::TopologyRefiner> refiner = mesh.createRefiner();
     Far::TopologyRefiner::AdaptiveOptions ao(isolation);
     refiner->RefineAdaptive(ao);
-    // Locations grouped by face, in the given order.
+    // One location array per run of consecutive locations on the same face; the stencils come
+    // out in the given order.
     std::vector<double> s(at.size()), t(at.size());
     Far::LimitStencilTableFactoryReal<double>::LocationArrayVec arrays;
     for (std::size_t i = 0; i < at.size();) {
@@ -185,7 +186,6 @@ inline LimitStencils limitStencils(const ControlMesh& mesh, const std::vector<Pt
 inline LimitStencils vertexLimitStencils(const ControlMesh& mesh, int isolation) {
     const Far::TopologyLevel& L = mesh.base();
     std::vector<PtexLocation> at(static_cast<std::size_t>(L.GetNumVertices()));
-    std::vector<int> order(at.size());
     for (int v = 0; v < L.GetNumVertices(); ++v) {
         const Far::ConstIndexArray faces = L.GetVertexFaces(v);
         if (faces.size() == 0) throw MeshError(mesh.description().name + ": vertex " + std::to_string(v + 1) + " is on no face");
@@ -201,36 +201,9 @@ inline LimitStencils vertexLimitStencils(const ControlMesh& mesh, int isolation)
             p = {mesh.ptex().GetFaceId(f) + c, 0.0, 0.0};
         }
     }
-    // The factory wants each face's locations together: sort, then scatter back.
-    std::vector<std::size_t> idx(at.size());
-    for (std::size_t i = 0; i < idx.size(); ++i) idx[i] = i;
-    std::stable_sort(idx.begin(), idx.end(), [&](std::size_t a, std::size_t b) { return at[a].face < at[b].face; });
-    std::vector<PtexLocation> sorted(at.size());
-    for (std::size_t i = 0; i < idx.size(); ++i) sorted[i] = at[idx[i]];
-    LimitStencils s = limitStencils(mesh, sorted, isolation);
-    LimitStencils out = s;
-    // Rows back in vertex order.
-    out.offsets.assign(at.size(), 0);
-    out.sizes.assign(at.size(), 0);
-    out.indices.clear();
-    out.w.clear();
-    out.du.clear();
-    out.dv.clear();
-    std::vector<std::size_t> rowOf(at.size());
-    for (std::size_t i = 0; i < idx.size(); ++i) rowOf[idx[i]] = i;
-    for (std::size_t v = 0; v < at.size(); ++v) {
-        const std::size_t r = rowOf[v];
-        out.offsets[v] = static_cast<int>(out.indices.size());
-        out.sizes[v] = s.sizes[r];
-        for (int k = 0; k < s.sizes[r]; ++k) {
-            const std::size_t o = static_cast<std::size_t>(s.offsets[r] + k);
-            out.indices.push_back(s.indices[o]);
-            out.w.push_back(s.w[o]);
-            out.du.push_back(s.du[o]);
-            out.dv.push_back(s.dv[o]);
-        }
-    }
-    return out;
+    // One location array per run of the same face, in this order: the rows come out in vertex
+    // order (the factory takes any number of arrays per face).
+    return limitStencils(mesh, at, isolation);
 }
 
 /// Progressive interpolation (Chen et al. 2008): `steps` times c_i += p_i - L_i(c), with p the
