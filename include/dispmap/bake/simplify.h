@@ -74,6 +74,7 @@ inline std::vector<glm::uvec3> manifoldTriangles(const std::vector<glm::uvec3>& 
 /// which collapses leave behind) into one vertex per fan, at the same position. Returns the
 /// new triangles; `positions` grows by the copies.
 inline std::vector<glm::uvec3> splitPinchedVertices(std::vector<glm::uvec3> tris, std::vector<glm::vec3>& positions, int& split) {
+    if (tris.empty()) return tris; // (also keeps GCC 12's -Wnull-dereference quiet about parent(0))
     // wedge = (triangle, corner); wedges of one vertex are joined through the edges they share
     const std::size_t nw = tris.size() * 3;
     std::vector<std::size_t> parent(nw);
