@@ -7,7 +7,7 @@
 # core      kernels core                         glm
 # meso      kernels core meso                    glm
 # surface   kernels core surface                 glm, opensubdiv, tinyobjloader
-# io        kernels core meso io                 glm, png, zlib
+# io        kernels core meso io                 glm, png, zlib, OpenEXR, Imath, tiffio.h
 # scene     kernels core meso surface io scene   glm, nlohmann
 # vulkan    kernels core meso surface vulkan     glm, vulkan
 # bake      kernels core meso surface io bake    glm, opensubdiv, tinyobjloader, nlohmann, embree3, tbb,
@@ -26,7 +26,7 @@ set(third_kernels "^glm/")
 set(third_core "^glm/")
 set(third_meso "^glm/")
 set(third_surface "^(glm|opensubdiv)/|^tiny_obj_loader\\.h$")
-set(third_io "^glm/|^(png|zlib)\\.h$")
+set(third_io "^(glm|OpenEXR|Imath)/|^(png|zlib|tiffio)\\.h$")
 set(third_scene "^(glm|nlohmann)/")
 set(third_vulkan "^(glm|vulkan)/")
 set(third_bake "^(glm|opensubdiv|nlohmann|embree3|tbb|assimp)/|^(tiny_obj_loader\\.h|meshoptimizer\\.h|nanoflann\\.hpp|sys/resource\\.h)$")

@@ -9,12 +9,15 @@ packages=(
   libosd-dev            # OpenSubdiv 3.5: Far topology, PtexIndices, Bfr limit evaluation
   libtinyobjloader-dev  # OBJ reading, including OpenSubdiv's crease/corner/hole tag lines
   libpng-dev            # 16-bit greyscale height images
+  libopenexr-dev        # EXR height images (half/float) from sculpting tools; brings Imath
+  libtiff-dev           # TIFF height images (8/16/32-bit integer and float) from sculpting tools
   libcli11-dev          # command-line parsing of the dispmap program
   nlohmann-json3-dev    # JSON output of `dispmap eval` (and scene files)
   libembree-dev         # bake: ray casting and closest points on dense meshes (Embree 3)
   libtbb-dev            # bake: all cores for the fitting, extraction and error measurement
   libmeshoptimizer-dev  # bake: simplification of a dense mesh to a base mesh (the DSS route)
   libassimp-dev         # bake: PLY (ASCII, binary) and OFF dense meshes
+  libtinygltf-dev       # dispmap tessellate: glTF 2.0 export (tinygltf)
   libnanoflann-dev      # bake: nearest dense vertex in position+normal space (k-d tree)
   catch2                # unit tests (Catch2 v2) under CTest
   libbenchmark-dev      # Google Benchmark for the figures

@@ -6,6 +6,8 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -16,7 +18,7 @@ namespace dispmap {
 /// Largest width or height of a height image, read or written.
 inline constexpr int kMaxHeightImageSize = 16384;
 
-/// A greyscale image of heights in [0, 1].
+/// A greyscale image of heights: in [0, 1] from integer samples, as stored from float ones (io/image_files.h).
 struct HeightImage {
     int width = 0, height = 0;
     /// Row by row, width * height values; row 0 is the top row of the file.
@@ -27,6 +29,13 @@ struct HeightImage {
         return values[static_cast<std::size_t>(y) * static_cast<std::size_t>(width) +
                       static_cast<std::size_t>(x)];
     }
+};
+
+/// Height images placed in UV space: one image covering [0, 1]^2 (key 0, udim false), or a
+/// UDIM set whose image with key 1001 + u + 10 v covers [u, u + 1] x [v, v + 1] (udim true).
+struct HeightMaps {
+    std::map<int, std::shared_ptr<const HeightImage>> images;
+    bool udim = false;
 };
 
 /// An 8-bit RGBA image (e.g. a rendered frame or a normal map).
