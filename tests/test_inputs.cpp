@@ -10,6 +10,7 @@
 
 #include "dispmap/io/png.h"
 #include "dispmap/surface/tile_builder.h"
+#include "dispmap/surface/map_source.h"
 #include "test_files.h"
 #include "test_support.h"
 

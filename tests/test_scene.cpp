@@ -252,6 +252,10 @@ TEST_CASE("scene: rejected inputs name the scene and the key", "[scene][errors]"
         {R"({"displacement": {"kk": 1}})", "displacement: unknown key 'kk' (known: function, height, tiles,"},
         {R"({"displacement": {"function": "noise"}})", "displacement.function: unknown value 'noise' (waves, zero)"},
         {R"({"displacement": {"filter": "box"}})", "displacement.filter: unknown value 'box' (haar, bwavelet)"},
+        {R"({"displacement": {"uv": "smoothest"}})", "displacement.uv: unknown value 'smoothest'"},
+        {R"({"displacement": {"mapFilter": "gauss"}})", "displacement.mapFilter: unknown value 'gauss' (point, box, tent)"},
+        {R"({"displacement": {"sizes": "texels", "mixedSizes": true}})", "give mixedSizes or sizes \"texels\", not both"},
+        {R"({"displacement": {"midLevel": 1e7}})", "displacement.midLevel: "},
         {R"({"displacement": {"sharpBand": 0.6}})", "displacement.sharpBand: 0.6 is not in [0, 0.5]"},
         {R"({"displacement": {"sharpBand": -0.1}})", "displacement.sharpBand: -0.1 is not in [0, 0.5]"},
         // nlohmann refuses numbers that overflow a double (no infinities from JSON).

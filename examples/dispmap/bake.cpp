@@ -26,6 +26,7 @@
 #include "dispmap/io/png.h"
 #include "dispmap/io/tile_file.h"
 #include "dispmap/scene/scene.h"
+#include "dispmap/surface/map_source.h"
 
 namespace dispmap::figures {
 

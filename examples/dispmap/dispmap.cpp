@@ -16,12 +16,14 @@
 #include <limits>
 #include <map>
 #include <sstream>
+#include <string_view>
 #include <memory>
 #include <optional>
 #include <vector>
 
 #include "dispmap/surface/displaced_surface.h"
 #include "dispmap/core/file_io.h"
+#include "dispmap/io/image_files.h"
 #include "dispmap/io/png.h"
 #include "dispmap/io/meso_file.h"
 #include "dispmap/scene/meso.h"
@@ -31,6 +33,7 @@
 #include "dispmap/io/mesh_writers.h"
 #include "dispmap/surface/tessellator.h"
 #include "dispmap/surface/tile_builder.h"
+#include "dispmap/surface/uv_map.h"
 #include "dispmap/io/tile_file.h"
 #include "dispmap/vulkan/context.h"
 #include "figures.h"
@@ -39,6 +42,8 @@
 #include "parity.h"
 #include "render.h"
 #include "bake.h"
+#include "maps_table.h"
+#include "gltf_export.h"
 #include "seams_table.h"
 
 using namespace dispmap;
@@ -73,16 +78,25 @@ int demo(bool quick) {
 // image, a procedural function, or a saved tile file.
 struct SourceArgs {
     std::string mesh, height, load, filter = "haar", function = "waves";
+    std::string channel, uv = "mesh", mapFilter = "point", sizes = "uniform";
     int k = 4;
-    double scale = 0.1, offset = 0.0;
-    bool wrap = false;
+    double scale = 0.1, offset = 0.0, midLevel = 0.0;
+    bool wrap = false, allowOverlap = false;
 };
 
 void addSourceOptions(CLI::App* cmd, SourceArgs& a) {
     cmd->add_option("--mesh", a.mesh, "control mesh (OBJ, OpenSubdiv tags)");
-    cmd->add_option("--height", a.height, "UV-mapped height image (8/16-bit greyscale PNG)");
-    cmd->add_option("--scale", a.scale, "displacement = offset + scale * height (or the function's amplitude)");
+    cmd->add_option("--height", a.height, "UV-mapped height image: PNG (8/16-bit grey), EXR (half/float), TIFF (8/16/32-bit); "
+                                          "a UDIM set when the name holds <UDIM> (map.<UDIM>.exr)");
+    cmd->add_option("--channel", a.channel, "the image's channel: EXR name (R, Y, ...), or TIFF sample 0, 1, ... (default: the only one)");
+    cmd->add_option("--scale", a.scale, "displacement = offset + scale * (height - mid-level) (or the function's amplitude)");
     cmd->add_option("--offset", a.offset, "displacement offset");
+    cmd->add_option("--mid-level", a.midLevel, "the height that means no displacement (sculpting tools: 0 or 0.5)");
+    cmd->add_option("--uv", a.uv, "UV interpolation: mesh (the OBJ's facevaryinginterpolateboundary tag, else linear), linear, "
+                                  "smooth, corners, corners+1, corners+2, boundaries");
+    cmd->add_option("--map-filter", a.mapFilter, "each sample of the map: point, box (its footprint), tent (twice its footprint)");
+    cmd->add_option("--sizes", a.sizes, "tile sizes: uniform (2^k), texels (per face from the map's texel density, at most 2^k)");
+    cmd->add_flag("--allow-overlap", a.allowOverlap, "accept faces that overlap in UV space");
     cmd->add_flag("--wrap", a.wrap, "wrap texture coordinates outside [0, 1]");
     cmd->add_option("--function", a.function, "procedural source when no image: waves, zero");
     cmd->add_option("-k,--size", a.k, "log2 tile size of quads (sub-faces of non-quads get k - 1)");
@@ -100,6 +114,12 @@ SceneDisplacement sceneDisplacement(const SourceArgs& a) {
     d.scale = a.scale;
     d.offset = a.offset;
     d.wrap = a.wrap;
+    d.channel = a.channel;
+    d.midLevel = a.midLevel;
+    d.uv = a.uv;
+    d.mapFilter = a.mapFilter;
+    d.sizes = a.sizes;
+    d.allowOverlap = a.allowOverlap;
     d.k = a.k;
     d.filter = a.filter;
     if (const std::optional<DrawProblem> p = displacementProblem(d)) throw ArgumentError("--scale / --offset: " + p->why);
@@ -153,7 +173,51 @@ struct LoadedSurface {
           surface(base, tiles, displacedOptions(a)) {}
 };
 
-int tiles(const SourceArgs& a, const std::string& output) {
+// Writes the tiles back into the UV layout (tilesToMap): one image, or one per UDIM tile of
+// the height map when `path` holds a UDIM token; the format by the extension (.exr float,
+// .tif 32-bit float, .png 16-bit: heights in [0, 1]); size: `size`, or the height map's.
+void writeMaps(const ControlMesh& mesh, const TileSet& ts, const SourceArgs& a, const std::string& path, int size) {
+    const std::optional<UvInterpolation> rule = parseUvInterpolation(a.uv);
+    if (!rule) throw ArgumentError("--uv: unknown rule '" + a.uv + "' (" + uvInterpolationNames() + ")");
+    const UvMap uvs(mesh, *rule);
+    HeightMaps maps;
+    if (!a.height.empty()) {
+        HeightReadOptions ro;
+        ro.channel = a.channel;
+        maps = readHeightMaps(a.height, ro);
+    }
+    const bool udim = isUdimPattern(path);
+    if (udim != maps.udim)
+        throw ArgumentError(std::string("--write-map: ") + (udim ? "a UDIM pattern needs a UDIM --height set"
+                                                                 : "the --height set is UDIM: give a pattern with <UDIM>"));
+    std::vector<int> tilesToWrite;
+    if (udim)
+        for (const auto& [n, img] : maps.images) tilesToWrite.push_back(n);
+    else
+        tilesToWrite.push_back(0);
+    for (int tile : tilesToWrite) {
+        const auto it = maps.images.find(tile);
+        const int w = size > 0 ? size : it != maps.images.end() ? it->second->width : 1024;
+        const int h = size > 0 ? size : it != maps.images.end() ? it->second->height : 1024;
+        const HeightImage img = tilesToMap(uvs, ts, tile, w, h, a.scale, a.offset, a.midLevel);
+        const std::string file = udim ? udimPath(path, tile) : path;
+        const auto ends = [&](const char* ext) {
+            const std::string e(ext);
+            return file.size() > e.size() && file.compare(file.size() - e.size(), e.size(), e) == 0;
+        };
+        if (ends(".exr"))
+            writeHeightExr(file, img);
+        else if (ends(".tif") || ends(".tiff"))
+            writeHeightTiff(file, img, 32, true);
+        else if (ends(".png"))
+            writeHeightPng16(file, img);
+        else
+            throw ArgumentError("--write-map: '" + file + "' must end in .exr, .tif or .png");
+        std::cout << "  wrote " << file << " (" << w << " x " << h << ")\n";
+    }
+}
+
+int tiles(const SourceArgs& a, const std::string& output, const std::string& mapOutput, int mapSize) {
     if (!a.load.empty() && a.mesh.empty()) {
         TileSet ts = loadTiles(a.load);
         figures::printTileStats(std::cout, "Tile file " + a.load + ":", ts, nullptr);
@@ -161,6 +225,7 @@ int tiles(const SourceArgs& a, const std::string& output) {
     }
     if (a.mesh.empty()) throw ArgumentError("tiles: give --mesh (with --height or --function) or --load");
     if (!output.empty()) detail::checkOutputPath(output, "tile file");
+    if (!mapOutput.empty() && !isUdimPattern(mapOutput)) detail::checkOutputPath(mapOutput, "map image");
     ControlMesh mesh = loadMesh(a, "tiles");
     BuildReport rep;
     TileSet ts = makeTiles(mesh, a, &rep);
@@ -170,6 +235,7 @@ int tiles(const SourceArgs& a, const std::string& output) {
         saveTiles(ts, output);
         std::cout << "  saved " << output << "\n";
     }
+    if (!mapOutput.empty()) writeMaps(mesh, ts, a, mapOutput, mapSize);
     return 0;
 }
 
@@ -274,10 +340,12 @@ struct TessellateArgs {
 };
 
 int tessellateCommand(const TessellateArgs& a) {
-    if (a.output.empty()) throw ArgumentError("tessellate: give -o out.obj or out.ply");
-    const bool ply = a.output.size() > 4 && a.output.compare(a.output.size() - 4, 4, ".ply") == 0;
-    const bool obj = a.output.size() > 4 && a.output.compare(a.output.size() - 4, 4, ".obj") == 0;
-    if (!ply && !obj) throw ArgumentError("tessellate: -o must name a .obj or a .ply file");
+    if (a.output.empty()) throw ArgumentError("tessellate: give -o out.obj, out.ply, out.glb or out.gltf");
+    const auto endsWith = [&](std::string_view ext) {
+        return a.output.size() > ext.size() && a.output.compare(a.output.size() - ext.size(), ext.size(), ext) == 0;
+    };
+    const bool ply = endsWith(".ply"), obj = endsWith(".obj"), gltf = endsWith(".glb") || endsWith(".gltf");
+    if (!ply && !obj && !gltf) throw ArgumentError("tessellate: -o must name a .obj, a .ply, a .glb or a .gltf file");
     detail::checkOutputPath(a.output, "mesh file");
     const LoadedSurface loaded(a.source, a.surface, "tessellate");
     const BaseSurface& base = loaded.base;
@@ -290,12 +358,32 @@ int tessellateCommand(const TessellateArgs& a) {
                             std::to_string(size.bytes >> 20) + " MiB, more than the " + std::to_string(a.options.maxBytes >> 20) +
                             " MiB a tessellation may take: lower " + (a.eye.empty() ? "--factor" : "--c") + " or --max-factor");
     const auto t0 = std::chrono::steady_clock::now();
-    const TriangleMesh m = tessellator.tessellate();
+    const TriangleMesh tessellated = tessellator.tessellate();
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    if (ply)
-        writePly(m, a.output);
-    else
-        writeObj(m, a.output);
+    // Texture coordinates in the mesh's UV layout (by the --uv rule), where it has one; vertices
+    // on UV seams are split, one copy per chart.
+    TexturedMesh textured;
+    if (loaded.mesh.hasUVs()) {
+        const std::optional<UvInterpolation> rule = parseUvInterpolation(a.source.uv);
+        if (!rule) throw ArgumentError("--uv: unknown rule '" + a.source.uv + "' (" + uvInterpolationNames() + ")");
+        textured = texturedMesh(tessellated, UvMap(loaded.mesh, *rule));
+    } else {
+        textured.mesh = tessellated;
+    }
+    const TriangleMesh& m = textured.mesh;
+    const std::vector<glm::dvec2>* tc = textured.texcoords.empty() ? nullptr : &textured.texcoords;
+    if (ply) {
+        MeshWriteOptions o;
+        o.faceUV = true; // each vertex's Ptex (face, u, v): ptex_face, ptex_u, ptex_v
+        o.texcoords = tc;
+        writePly(m, a.output, o);
+    } else if (gltf) {
+        writeGltf(m, a.output, tc);
+    } else {
+        MeshWriteOptions o;
+        o.texcoords = tc;
+        writeObj(m, a.output, o);
+    }
     std::cout << "tessellated " << base.faceCount() << " faces into " << m.triangleCount() << " triangles, "
               << m.vertexCount() << " vertices in " << ms << " ms (normals " << toString(a.options.normals) << ", spacing "
               << toString(a.options.spacing) << ", mips " << toString(a.options.mips) << "); wrote " << a.output << "\n";
@@ -439,6 +527,11 @@ int main(int argc, char** argv) {
     auto* tilesCmd = app.add_subcommand("tiles", "build a tile set from a mesh and a displacement source");
     addSourceOptions(tilesCmd, ta);
     tilesCmd->add_option("-o,--output", tilesOutput, "write the tile file");
+    std::string mapOutput;
+    int mapSize = 0;
+    tilesCmd->add_option("--write-map", mapOutput, "write the tiles back into the UV layout: out.exr, .tif or .png "
+                                                   "(a UDIM pattern for a UDIM set)");
+    tilesCmd->add_option("--map-size", mapSize, "width and height of --write-map (default: the height map's)");
     EvalArgs ea;
     auto* evalCmd = app.add_subcommand("eval", "evaluate the displaced surface at (face, u, v): JSON with positions, "
                                                 "derivatives and the normal in each mode");
@@ -451,9 +544,10 @@ int main(int argc, char** argv) {
     evalCmd->add_option("-o,--output", ea.output, "write the JSON here instead of standard output");
     TessellateArgs ts;
     auto* tessCmd = app.add_subcommand("tessellate", "tessellate the displaced surface into a watertight triangle mesh "
-                                                      "(OBJ or PLY)");
+                                                      "(OBJ, PLY or glTF)");
     addSourceOptions(tessCmd, ts.source);
-    tessCmd->add_option("-o,--output", ts.output, "out.obj or out.ply (binary)");
+    tessCmd->add_option("-o,--output", ts.output,
+                        "out.obj, out.ply (binary, with each vertex's Ptex face, u, v) or glTF 2.0 out.glb / out.gltf");
     tessCmd->add_option("--factor", ts.factor, "uniform tessellation factor (segments per base edge)");
     tessCmd->add_option("--eye", ts.eye, "x,y,z: distance-based factors c / |eye - vertex| instead (with --c)");
     tessCmd->add_option("--c", ts.distance, "constant of the distance-based factors");
@@ -526,6 +620,13 @@ int main(int argc, char** argv) {
     mesoCmd->add_option("--csv", ma.csv, "with --table: also write it as CSV");
     mesoCmd->add_option("--images", ma.images, "with --table: write the iteration pictures (PNG) to this folder");
     mesoCmd->add_option("--data", ma.data, "folder of the built-in scenes' images");
+    figures::MapsTableArgs mta;
+    mta.dataDir = DISPMAP_EXAMPLE_DATA;
+    bool mapsTable = false;
+    auto* mapsCmd = app.add_subcommand("maps", "displacement maps: print the table of formats, prefilters, tile sizes from the "
+                                                "texel density and UV rules (docs/figures.md)");
+    mapsCmd->add_flag("--table", mapsTable, "print the table (markdown)");
+    mapsCmd->add_flag("--quick", mta.quick, "a 512 map for the formats rows instead of 2048");
     figures::BakeArgs ba;
     ba.denseDir = DISPMAP_DENSE_DIR;
     ba.skeletonDir = DISPMAP_SKELETON_DIR;
@@ -557,13 +658,18 @@ int main(int argc, char** argv) {
     CLI11_PARSE(app, argc, argv);
     try {
         if (*demoCmd) return demo(quick);
-        if (*tilesCmd) return tiles(ta, tilesOutput);
+        if (*tilesCmd) return tiles(ta, tilesOutput, mapOutput, mapSize);
         if (*evalCmd) return eval(ea);
         if (*tessCmd) return tessellateCommand(ts);
         if (*parityCmd) return runParity(pa);
         if (*renderCmd) return figures::renderCommand(ra);
         if (*mesoCmd) return mesoCommand(ma);
         if (*bakeCmd) return figures::bakeCommand(ba);
+        if (*mapsCmd) {
+            if (!mapsTable) throw ArgumentError("dispmap maps: give --table");
+            figures::printMapsTable(std::cout, mta);
+            return 0;
+        }
         if (*benchCmd) {
             // Every table, or the one --only names (then no timings either).
             auto table = [&](const char* name, auto&& print) {

@@ -16,6 +16,7 @@
 #include "dispmap/surface/displaced_surface.h"
 #include "dispmap/surface/mesh.h"
 #include "dispmap/surface/tile_builder.h"
+#include "dispmap/surface/map_source.h"
 
 int main(int argc, char** argv) {
     if (argc < 3) {

@@ -6,10 +6,12 @@
 #include <vector>
 
 #include "dispmap/core/error.h"
+#include "dispmap/io/image_files.h"
 #include "dispmap/io/png.h"
 #include "dispmap/io/tile_file.h"
 #include "dispmap/scene/scene.h"
 #include "dispmap/surface/builtin.h"
+#include "dispmap/surface/map_source.h"
 #include "dispmap/surface/mesh.h"
 #include "dispmap/surface/tile_builder.h"
 
@@ -22,20 +24,12 @@ namespace dispmap {
 /// ArgumentError as uniformTileSizes.
 inline std::vector<int> mixedTileSizes(const ControlMesh& mesh, int k) {
     std::vector<int> out = uniformTileSizes(mesh, k);
+    const std::vector<char> pinned = quadsPinnedByNonQuads(mesh);
     const Far::TopologyLevel& L = mesh.base();
-    std::vector<std::uint8_t> pinned(static_cast<std::size_t>(L.GetNumVertices()), 0);
-    for (int e = 0; e < L.GetNumEdges(); ++e) {
-        bool quad = false, other = false;
-        for (int f : L.GetEdgeFaces(e)) (L.GetFaceVertices(f).size() == 4 ? quad : other) = true;
-        if (!(quad && other)) continue;
-        for (int v : L.GetEdgeVertices(e)) pinned[static_cast<std::size_t>(v)] = 1;
-    }
     for (int f = 0; f < L.GetNumFaces(); ++f) {
-        if (L.GetFaceVertices(f).size() != 4) continue;
-        bool keep = false;
-        for (int v : L.GetFaceVertices(f)) keep = keep || pinned[static_cast<std::size_t>(v)] != 0;
+        if (L.GetFaceVertices(f).size() != 4 || pinned[static_cast<std::size_t>(f)]) continue;
         const int t = mesh.ptex().GetFaceId(f);
-        if (!keep) out[static_cast<std::size_t>(t)] = std::max(kMinTileLog2, k - t % 3);
+        out[static_cast<std::size_t>(t)] = std::max(kMinTileLog2, k - t % 3);
     }
     return out;
 }
@@ -55,8 +49,10 @@ inline ControlMesh sceneMesh(const Scene& scene) {
 }
 
 /// The tile set of `mesh` that `d` describes, its paths ready to open: loaded from the tile
-/// file, or built from the height image or the procedural function with tile sizes 2^k
-/// (mixedTileSizes if mixedSizes) and the mip filter (`dispmap tiles` and sceneTiles). The
+/// file, or built from the height image (one image or a UDIM set: io/image_files.h, placed
+/// through the UV rule `uv` with the map filter: surface/map_source.h) or the procedural
+/// function, with tile sizes 2^k (mixedTileSizes if mixedSizes, texelTileSizes up to k if
+/// sizes is "texels") and the mip filter (`dispmap tiles` and sceneTiles). The
 /// scale and offset are checked first (displacementProblem: |offset| + |scale| <=
 /// kMaxDisplacement), before any file is read.
 /// `report` (if given) receives the fit's report when tiles are built. Throws FileError for a
@@ -82,18 +78,51 @@ inline TileSet displacementTiles(const ControlMesh& mesh, const SceneDisplacemen
         o.filter = MipFilter::BWavelet;
     else
         throw ArgumentError("displacement.filter: unknown value '" + d.filter + "' (haar, bwavelet)");
+    const std::optional<UvInterpolation> uvRule = parseUvInterpolation(d.uv);
+    if (!uvRule) throw ArgumentError("displacement.uv: unknown value '" + d.uv + "' (" + uvInterpolationNames() + ")");
+    const std::optional<MapFilter> mapFilter = parseMapFilter(d.mapFilter);
+    if (!mapFilter) throw ArgumentError("displacement.mapFilter: unknown value '" + d.mapFilter + "' (point, box, tent)");
+    if (d.sizes != "uniform" && d.sizes != "texels")
+        throw ArgumentError("displacement.sizes: unknown value '" + d.sizes + "' (uniform, texels)");
+    if (d.sizes == "texels" && d.height.empty()) throw ArgumentError("displacement.sizes: \"texels\" needs a height image");
+    if (!std::isfinite(d.midLevel) || std::abs(d.midLevel) > kMaxDisplacement)
+        throw ArgumentError("displacement.midLevel: must be finite, at most " + std::to_string(kMaxDisplacement) + " in size");
     try {
         DisplacementFunction source;
+        std::vector<int> k;
         if (!d.height.empty()) {
-            auto img = std::make_shared<HeightImage>(readHeightPng(d.height));
-            source = imageSource(mesh, img, d.scale, d.offset, d.wrap);
+            HeightReadOptions ro;
+            ro.channel = d.channel;
+            const HeightMaps maps = readHeightMaps(d.height, ro);
+            auto uvs = std::make_shared<const UvMap>(mesh, *uvRule);
+            k = d.sizes == "texels" ? texelTileSizes(mesh, *uvs, maps, kMinTileLog2, d.k)
+                : d.mixedSizes      ? mixedTileSizes(mesh, d.k)
+                                    : uniformTileSizes(mesh, d.k);
+            MapSourceOptions mo;
+            mo.scale = d.scale;
+            mo.offset = d.offset;
+            mo.midLevel = d.midLevel;
+            mo.wrap = d.wrap;
+            mo.filter = *mapFilter;
+            mo.allowOverlap = d.allowOverlap;
+            DisplacementFunction mapped = mapSource(uvs, maps, k, mo);
+            // float heights are not bounded by [0, 1]: the displacement's bound is checked per sample
+            source = [mapped = std::move(mapped)](int f, double u, double v) {
+                const double x = mapped(f, u, v);
+                if (std::abs(x) > kMaxDisplacement)
+                    throw ArgumentError("the height image gives a displacement of " + std::to_string(x) + " at Ptex face " +
+                                        std::to_string(f) + ", beyond " + std::to_string(kMaxDisplacement) +
+                                        " (check scale and midLevel)");
+                return x;
+            };
+            return buildTiles(mesh, k, source, o, report);
         } else if (d.function == "waves") {
             const double s = d.scale;
             source = [s](int f, double u, double v) { return s * builtin::defaultDisplacement(f, u, v) / 0.07; };
         } else {
             source = [](int, double, double) { return 0.0; };
         }
-        const std::vector<int> k = d.mixedSizes ? mixedTileSizes(mesh, d.k) : uniformTileSizes(mesh, d.k);
+        k = d.mixedSizes ? mixedTileSizes(mesh, d.k) : uniformTileSizes(mesh, d.k);
         return buildTiles(mesh, k, source, o, report);
     } catch (const ArgumentError& e) {
         throw ArgumentError(std::string("displacement: ") + e.what());

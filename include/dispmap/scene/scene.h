@@ -6,6 +6,8 @@
 //
 //   { "mesh": "builtin:box", "isolation": 6,
 //     "displacement": {"function": "waves", "height": "", "tiles": "", "scale": 0.07, "offset": 0,
+//                      "midLevel": 0, "channel": "", "uv": "mesh", "mapFilter": "point",
+//                      "sizes": "uniform", "allowOverlap": false,
 //                      "wrap": false, "k": 5, "mixedSizes": false, "filter": "haar", "sharpBand": 0.25},
 //     "camera": {"eye": [2.6, 2.0, 3.4], "target": [0, 0, 0], "up": [0, 1, 0], "fovY": 40,
 //                "near": 0.05, "far": 100},
@@ -85,10 +87,20 @@ struct SceneDisplacement {
     /// "waves" (builtin::defaultDisplacement times scale / 0.07, so |D| <= scale) or "zero";
     /// used when height and tiles are both empty.
     std::string function = "waves";
-    std::string height;   ///< UV-mapped height PNG: D = offset + scale * h (path as written)
+    /// UV-mapped height image (PNG, EXR, TIFF; a UDIM set when the name holds <UDIM>):
+    /// D = offset + scale * (h - midLevel) (path as written)
+    std::string height;
     std::string tiles;    ///< a saved tile file (.dmt) instead (path as written)
     double scale = 0.07, offset = 0;
     bool wrap = false;    ///< height image: wrap texture coordinates outside [0, 1]
+    double midLevel = 0;  ///< height image: the height that means no displacement
+    std::string channel;  ///< height image: its channel ("" : the only one, or grey / Y / R)
+    std::string uv = "mesh"; ///< height image: UV interpolation (surface/uv_map.h: mesh, linear, smooth, ...)
+    std::string mapFilter = "point"; ///< height image: point, box or tent (surface/map_source.h)
+    /// "uniform": k everywhere (or mixedSizes); "texels": per face from the image's texel
+    /// density, at most k (texelTileSizes)
+    std::string sizes = "uniform";
+    bool allowOverlap = false; ///< height image: accept faces that overlap in UV space
     int k = 5;            ///< log2 tile size of quads (sub-faces of non-quads get k - 1), 1..kMaxTileLog2
     bool mixedSizes = false; ///< quads get k - (ptex face % 3) (>= 1): mixedTileSizes
     std::string filter = "haar"; ///< mip filter: "haar" | "bwavelet"
@@ -357,7 +369,8 @@ inline Scene parseSceneDocument(const nlohmann::json& root, const std::string& n
     if (has(root, "displacement")) {
         const Json& d = root["displacement"];
         r.object(d, "displacement",
-                 {"function", "height", "tiles", "scale", "offset", "wrap", "k", "mixedSizes", "filter", "sharpBand"});
+                 {"function", "height", "tiles", "scale", "offset", "wrap", "k", "mixedSizes", "filter", "sharpBand",
+                  "midLevel", "channel", "uv", "mapFilter", "sizes", "allowOverlap"});
         SceneDisplacement& o = s.displacement;
         if (has(d, "function")) {
             o.function = r.string(d["function"], "displacement.function");
@@ -371,8 +384,28 @@ inline Scene parseSceneDocument(const nlohmann::json& root, const std::string& n
         if (has(d, "offset")) o.offset = r.number(d["offset"], "displacement.offset");
         if (const std::optional<DrawProblem> p = displacementProblem(o)) r.fail(p->key, p->why);
         if (has(d, "wrap")) o.wrap = r.boolean(d["wrap"], "displacement.wrap");
+        if (has(d, "midLevel")) {
+            o.midLevel = r.number(d["midLevel"], "displacement.midLevel");
+            if (!(std::abs(o.midLevel) <= kMaxDisplacement))
+                r.fail("displacement.midLevel", detail::drawNumber(o.midLevel) + " exceeds " + detail::drawNumber(kMaxDisplacement));
+        }
+        if (has(d, "channel")) o.channel = r.string(d["channel"], "displacement.channel");
+        if (has(d, "uv")) {
+            o.uv = r.string(d["uv"], "displacement.uv");
+            r.oneOf(o.uv, "displacement.uv", {"mesh", "linear", "smooth", "corners", "corners+1", "corners+2", "boundaries"});
+        }
+        if (has(d, "mapFilter")) {
+            o.mapFilter = r.string(d["mapFilter"], "displacement.mapFilter");
+            r.oneOf(o.mapFilter, "displacement.mapFilter", {"point", "box", "tent"});
+        }
+        if (has(d, "sizes")) {
+            o.sizes = r.string(d["sizes"], "displacement.sizes");
+            r.oneOf(o.sizes, "displacement.sizes", {"uniform", "texels"});
+        }
+        if (has(d, "allowOverlap")) o.allowOverlap = r.boolean(d["allowOverlap"], "displacement.allowOverlap");
         if (has(d, "k")) o.k = r.integer(d["k"], "displacement.k", kMinTileLog2, kMaxTileLog2);
         if (has(d, "mixedSizes")) o.mixedSizes = r.boolean(d["mixedSizes"], "displacement.mixedSizes");
+        if (o.mixedSizes && o.sizes != "uniform") r.fail("displacement", "give mixedSizes or sizes \"" + o.sizes + "\", not both");
         if (has(d, "filter")) {
             o.filter = r.string(d["filter"], "displacement.filter");
             r.oneOf(o.filter, "displacement.filter", {"haar", "bwavelet"});
@@ -484,7 +517,9 @@ inline std::string toJson(const Scene& s) {
     j["displacement"] = {{"function", d.function}, {"height", d.height}, {"tiles", d.tiles},
                          {"scale", d.scale},       {"offset", d.offset}, {"wrap", d.wrap},
                          {"k", d.k},               {"mixedSizes", d.mixedSizes}, {"filter", d.filter},
-                         {"sharpBand", d.sharpBand}};
+                         {"sharpBand", d.sharpBand}, {"midLevel", d.midLevel}, {"channel", d.channel},
+                         {"uv", d.uv},             {"mapFilter", d.mapFilter}, {"sizes", d.sizes},
+                         {"allowOverlap", d.allowOverlap}};
     const Camera& c = s.camera;
     j["camera"] = {{"eye", v3(c.eye)},       {"target", v3(c.target)}, {"up", v3(c.up)},
                    {"fovY", c.fovYDeg},      {"near", c.nearPlane},    {"far", c.farPlane}};

@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <system_error>
@@ -52,8 +53,8 @@ struct MeshDescription {
     Sdc::Options::CreasingMethod creasing = Sdc::Options::CREASE_UNIFORM;
     /// `t smoothtriangles`: Catmark's rule for triangles (TRI_SUB_SMOOTH changes the surface).
     Sdc::Options::TriangleSubdivision triangles = Sdc::Options::TRI_SUB_CATMARK;
-    /// `t facevaryinginterpolateboundary`: carried to the refiner for face-varying data (dispmap
-    /// does not interpolate face-varying data yet). Sdc's default.
+    /// `t facevaryinginterpolateboundary`: how the texture coordinates subdivide, the rule
+    /// UvMap's UvInterpolation::Mesh uses (surface/uv_map.h). Default: linear (FVAR_LINEAR_ALL).
     Sdc::Options::FVarLinearInterpolation fvarLinear = Sdc::Options::FVAR_LINEAR_ALL;
 };
 
@@ -581,8 +582,11 @@ class ControlMesh {
     int ptexFaceCount() const { return ptex_->GetNumFaces(); }
     bool hasUVs() const { return !desc_.faceUVs.empty(); }
     /// A new, unrefined TopologyRefiner of this mesh, for callers that refine (BaseSurface
-    /// refines adaptively; the one above stays at the base level).
-    std::unique_ptr<Far::TopologyRefiner> createRefiner() const;
+    /// refines adaptively; the one above stays at the base level). With `uvRule` (a mesh with
+    /// texture coordinates only) it carries the texture coordinates as face-varying channel 0,
+    /// interpolated by that rule (surface/uv_map.h).
+    std::unique_ptr<Far::TopologyRefiner> createRefiner(
+        std::optional<Sdc::Options::FVarLinearInterpolation> uvRule = std::nullopt) const;
     /// First vertex of face f in the concatenated face-vertex arrays.
     int faceOffset(int f) const { return offsets_[static_cast<std::size_t>(f)]; }
 
@@ -676,7 +680,8 @@ inline void ControlMesh::build() {
     ptex_ = std::make_shared<Far::PtexIndices>(*refiner_);
 }
 
-inline std::unique_ptr<Far::TopologyRefiner> ControlMesh::createRefiner() const {
+inline std::unique_ptr<Far::TopologyRefiner> ControlMesh::createRefiner(
+    std::optional<Sdc::Options::FVarLinearInterpolation> uvRule) const {
     const MeshDescription& d = desc_;
     const std::string& n = d.name;
     Far::TopologyDescriptor td;
@@ -696,7 +701,14 @@ inline std::unique_ptr<Far::TopologyRefiner> ControlMesh::createRefiner() const 
     sdc.SetVtxBoundaryInterpolation(d.boundary);
     sdc.SetCreasingMethod(d.creasing);
     sdc.SetTriangleSubdivision(d.triangles);
-    sdc.SetFVarLinearInterpolation(d.fvarLinear);
+    sdc.SetFVarLinearInterpolation(uvRule.value_or(d.fvarLinear));
+    Far::TopologyDescriptor::FVarChannel uvChannel;
+    if (uvRule && hasUVs()) {
+        uvChannel.numValues = static_cast<int>(d.uvs.size());
+        uvChannel.valueIndices = d.faceUVs.data();
+        td.numFVarChannels = 1;
+        td.fvarChannels = &uvChannel;
+    }
     // OpenSubdiv reports errors through one process-wide callback (Far::SetErrorCallback) that
     // belongs to the application: dispmap never sets it. build() has rejected every input Far
     // is known to refuse or warn about, so a failure here is unexpected; Far's own message

@@ -71,6 +71,27 @@ struct BuildReport {
     int tJunctions = 0;          ///< quad/sub-face T-junctions
 };
 
+/// Per base face: 1 for a quad at either end of an edge that it or another quad shares with a
+/// non-quad face. At a T-junction the builder needs such a quad to have the largest size (the
+/// sub-faces' k + 1) and no smaller tile at the edge's ends; mixedTileSizes and
+/// texelTileSizes keep these quads at k.
+inline std::vector<char> quadsPinnedByNonQuads(const ControlMesh& mesh) {
+    const Far::TopologyLevel& L = mesh.base();
+    std::vector<char> vertex(static_cast<std::size_t>(L.GetNumVertices()), 0);
+    for (int e = 0; e < L.GetNumEdges(); ++e) {
+        bool quad = false, other = false;
+        for (int f : L.GetEdgeFaces(e)) (L.GetFaceVertices(f).size() == 4 ? quad : other) = true;
+        if (!(quad && other)) continue;
+        for (int v : L.GetEdgeVertices(e)) vertex[static_cast<std::size_t>(v)] = 1;
+    }
+    std::vector<char> out(static_cast<std::size_t>(L.GetNumFaces()), 0);
+    for (int f = 0; f < L.GetNumFaces(); ++f) {
+        if (L.GetFaceVertices(f).size() != 4) continue;
+        for (int v : L.GetFaceVertices(f)) out[static_cast<std::size_t>(f)] |= vertex[static_cast<std::size_t>(v)];
+    }
+    return out;
+}
+
 /// Tile sizes (log2) for every Ptex face: quads get k, sub-faces of non-quads k - 1, so that
 /// texels have the same spacing along every base edge. Throws ArgumentError if k is out of
 /// range, or k < 2 on a mesh with non-quad faces.
@@ -89,59 +110,6 @@ inline std::vector<int> uniformTileSizes(const ControlMesh& mesh, int k) {
         for (int j = 0; j < n; ++j) out[static_cast<std::size_t>(mesh.ptex().GetFaceId(f) + j)] = k - 1;
     }
     return out;
-}
-
-/// A UV-mapped height image as a displacement source: D = offset + scale * h(uv), with uv
-/// interpolated bilinearly over each Ptex face from the face's texture coordinates (for a
-/// sub-face: corner, edge midpoints, centroid). Throws ArgumentError if the mesh has no
-/// texture coordinates, the image is empty, scale/offset are not finite, or (without wrap)
-/// a texture coordinate lies more than half a texel outside [0, 1].
-inline DisplacementFunction imageSource(const ControlMesh& mesh, std::shared_ptr<const HeightImage> image,
-                                        double scale, double offset, bool wrap = false) {
-    const std::string& name = mesh.description().name;
-    if (!image || image->width < 1 || image->height < 1 ||
-        image->values.size() != static_cast<std::size_t>(image->width) * static_cast<std::size_t>(image->height))
-        throw ArgumentError("height image is empty or malformed");
-    if (!std::isfinite(scale) || !std::isfinite(offset)) throw ArgumentError("height scale and offset must be finite");
-    if (!mesh.hasUVs())
-        throw ArgumentError(name + ": mesh has no texture coordinates, so a height image cannot be mapped onto it");
-    const MeshDescription& d = mesh.description();
-    const Far::TopologyLevel& L = mesh.base();
-    auto corners = std::make_shared<std::vector<std::array<glm::dvec2, 4>>>(static_cast<std::size_t>(mesh.ptexFaceCount()));
-    for (int f = 0; f < L.GetNumFaces(); ++f) {
-        const int n = L.GetFaceVertices(f).size();
-        const int at = mesh.faceOffset(f);
-        std::vector<glm::dvec2> uv(static_cast<std::size_t>(n));
-        glm::dvec2 centre(0.0);
-        for (int j = 0; j < n; ++j) {
-            uv[static_cast<std::size_t>(j)] = d.uvs[static_cast<std::size_t>(d.faceUVs[static_cast<std::size_t>(at + j)])];
-            const glm::dvec2& t = uv[static_cast<std::size_t>(j)];
-            // Within half a texel outside [0, 1] the clamped lookup reads the border texel
-            // anyway (real UV layouts, e.g. Spot's, overshoot by a fraction of a texel).
-            const double sx = 0.5 / image->width, sy = 0.5 / image->height;
-            if (!wrap && (t.x < -sx || t.x > 1.0 + sx || t.y < -sy || t.y > 1.0 + sy))
-                throw ArgumentError(name + ": face " + std::to_string(f + 1) + " has texture coordinate (" +
-                                    std::to_string(t.x) + ", " + std::to_string(t.y) +
-                                    ") outside the image; enable wrapping or fix the mesh");
-            centre += t / static_cast<double>(n);
-        }
-        const int first = mesh.ptex().GetFaceId(f);
-        if (n == 4) {
-            (*corners)[static_cast<std::size_t>(first)] = {uv[0], uv[1], uv[2], uv[3]};
-        } else {
-            for (int k = 0; k < n; ++k) {
-                const glm::dvec2 a = uv[static_cast<std::size_t>(k)];
-                const glm::dvec2 b = uv[static_cast<std::size_t>((k + 1) % n)];
-                const glm::dvec2 p = uv[static_cast<std::size_t>((k + n - 1) % n)];
-                (*corners)[static_cast<std::size_t>(first + k)] = {a, 0.5 * (a + b), centre, 0.5 * (a + p)};
-            }
-        }
-    }
-    return [corners, image, scale, offset, wrap](int face, double u, double v) {
-        const auto& c = (*corners)[static_cast<std::size_t>(face)];
-        const glm::dvec2 t = (1 - u) * (1 - v) * c[0] + u * (1 - v) * c[1] + u * v * c[2] + (1 - u) * v * c[3];
-        return offset + scale * sampleHeightBilinear(*image, t.x, t.y, wrap);
-    };
 }
 
 namespace detail {
