@@ -199,7 +199,7 @@ void writeMaps(const ControlMesh& mesh, const TileSet& ts, const SourceArgs& a, 
         const auto it = maps.images.find(tile);
         const int w = size > 0 ? size : it != maps.images.end() ? it->second->width : 1024;
         const int h = size > 0 ? size : it != maps.images.end() ? it->second->height : 1024;
-        const HeightImage img = tilesToMap(uvs, ts, tile, w, h, a.scale, a.offset, a.midLevel);
+        const HeightImage img = tilesToMap(uvs, ts, tile, w, h, a.scale, a.offset, a.midLevel, nullptr, a.wrap && !udim);
         const std::string file = udim ? udimPath(path, tile) : path;
         const auto ends = [&](const char* ext) {
             const std::string e(ext);
@@ -219,13 +219,28 @@ void writeMaps(const ControlMesh& mesh, const TileSet& ts, const SourceArgs& a, 
 
 int tiles(const SourceArgs& a, const std::string& output, const std::string& mapOutput, int mapSize) {
     if (!a.load.empty() && a.mesh.empty()) {
+        if (!mapOutput.empty()) throw ArgumentError("--write-map needs --mesh (the UV layout)");
         TileSet ts = loadTiles(a.load);
         figures::printTileStats(std::cout, "Tile file " + a.load + ":", ts, nullptr);
         return 0;
     }
     if (a.mesh.empty()) throw ArgumentError("tiles: give --mesh (with --height or --function) or --load");
     if (!output.empty()) detail::checkOutputPath(output, "tile file");
-    if (!mapOutput.empty() && !isUdimPattern(mapOutput)) detail::checkOutputPath(mapOutput, "map image");
+    if (!mapOutput.empty()) {
+        const auto ends = [&](const char* ext) {
+            const std::string e(ext);
+            return mapOutput.size() > e.size() && mapOutput.compare(mapOutput.size() - e.size(), e.size(), e) == 0;
+        };
+        if (!ends(".exr") && !ends(".tif") && !ends(".tiff") && !ends(".png"))
+            throw ArgumentError("--write-map: '" + mapOutput + "' must end in .exr, .tif or .png");
+        if (isUdimPattern(mapOutput) != (!a.height.empty() && isUdimPattern(a.height)))
+            throw ArgumentError(std::string("--write-map: ") + (isUdimPattern(mapOutput) ? "a UDIM pattern needs a UDIM --height set"
+                                                                                            : "the --height set is UDIM: give a pattern with <UDIM>"));
+        if (mapSize < 0 || mapSize > kMaxHeightImageSize)
+            throw ArgumentError("--map-size " + std::to_string(mapSize) + " out of range [0 (the height map's size), " +
+                                std::to_string(kMaxHeightImageSize) + "]");
+        if (!isUdimPattern(mapOutput)) detail::checkOutputPath(mapOutput, "map image");
+    }
     ControlMesh mesh = loadMesh(a, "tiles");
     BuildReport rep;
     TileSet ts = makeTiles(mesh, a, &rep);

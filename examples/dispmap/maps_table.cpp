@@ -115,7 +115,7 @@ void printMapsTable(std::ostream& out, const MapsTableArgs& a) {
             return wavy(p.x, p.y);
         };
         out << "Formats: a " << size << " x " << size << " analytic height field written in each format, read back and "
-            << "placed on Spot (" << spot.ptexFaceCount() << " faces, 32 x 32 tiles, point samples, wrap). Error of D against the "
+            << "placed on Spot (" << spot.ptexFaceCount() << " Ptex faces, 32 x 32 tiles (sub-faces 16 x 16), point samples, wrap). Error of D against the "
             << "function at 8 x 8 points per tile (|D| <= 1; its maximum is the Doo-Sabin corner constraint at extraordinary "
             << "vertices, D_u = D_v = 0 there, whatever the format):\n\n";
         out << "| format | file bytes | read s | read-back max abs h error | format's rounding | place + fit s | max error of D | rms error of D |\n";
@@ -145,7 +145,7 @@ void printMapsTable(std::ostream& out, const MapsTableArgs& a) {
     // --- 2. Prefilters: the brick map on Spot at tile sizes below its texel density.
     {
         out << "Prefilters: the 512 x 512 brick map on Spot (linear UVs, wrap). Error of D against the full-resolution map at 16 x 16 "
-            << "points per tile; a sample of a 2^k tile spans about 10 / 2^k texels of this map:\n\n";
+            << "points per tile; a sample of a 2^k tile spans about 20 / 2^k texels of this map (5-50 / 2^k by face):\n\n";
         out << "| k | filter | build s | max error | rms error |\n|---:|---|---:|---:|---:|\n";
         for (int kk : {2, 3, 4}) {
             const std::vector<int> k = uniformTileSizes(spot, kk);

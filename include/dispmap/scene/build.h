@@ -85,6 +85,7 @@ inline TileSet displacementTiles(const ControlMesh& mesh, const SceneDisplacemen
     if (d.sizes != "uniform" && d.sizes != "texels")
         throw ArgumentError("displacement.sizes: unknown value '" + d.sizes + "' (uniform, texels)");
     if (d.sizes == "texels" && d.height.empty()) throw ArgumentError("displacement.sizes: \"texels\" needs a height image");
+    if (d.sizes == "texels" && d.mixedSizes) throw ArgumentError("displacement: give mixedSizes or sizes \"texels\", not both");
     if (!std::isfinite(d.midLevel) || std::abs(d.midLevel) > kMaxDisplacement)
         throw ArgumentError("displacement.midLevel: must be finite, at most " + std::to_string(kMaxDisplacement) + " in size");
     try {

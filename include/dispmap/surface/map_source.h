@@ -12,14 +12,16 @@
 //          sample shares with its neighbours is weighted down, so less aliasing survives).
 // The integral is a midpoint rule over the bilinear reconstruction of the map with about one
 // tap per texel the footprint spans (the span rounded; at most maxTaps per axis): where a
-// sample spans less than 1.5 texels the box is the point sample, and the tent two taps. `dispmap tiles --filter-table` measures
-// error against the full-resolution map and build time for the three.
+// sample spans less than 1.5 texels the box is the point sample, and the tent two taps.
+// `dispmap maps --table` measures error against the full-resolution map and build time for
+// the three.
 //
 // UDIM. The tile of a face is the one holding the UV of its centre; every corner of the face
 // must lie in that tile (within half a texel), else the face spans two tiles: an error. A
 // face whose tile the set lacks is an error naming the face and the tiles there are.
 // Overlapping UVs (two faces covering one texel) are an error unless allowed: a displacement
-// map holds one height per texel.
+// map holds one height per texel. (Not checked with wrap, where a layout may repeat on
+// purpose.)
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -82,41 +84,47 @@ inline glm::dvec2 udimOrigin(int udim) {
 /// Calls visit(x, y, ptexFace, u, v) for every texel centre of a w x h image of the unit UV
 /// square of UDIM tile `udim` (0: [0, 1]^2; row 0 at the top, t = 1) that a ptex face with
 /// faceTiles[face] == udim covers, with the face's (u, v) there. Each face is cut into
-/// steps x steps cells of its parameters whose UV images are split into two triangles; a
+/// steps x steps cells of its parameters (a quad 2 steps x 2 steps: its edges are twice a
+/// sub-face's, so both sides of an edge a quad shares with a sub-face sample it at the same
+/// points) whose UV images are split into two triangles; a
 /// texel centre in a triangle gets (u, v) by the triangle's interpolation, then `newton`
 /// Newton steps on the UV map make uv(face, u, v) equal the texel centre. inset > 0 takes only
 /// centres more than `inset` (in barycentric terms) inside a triangle; inset = 0 takes those
-/// on the edges too, so a centre on an edge two faces share is visited for both.
+/// on the edges too, so a centre on an edge two faces share is visited for both. `shift`
+/// moves the square (by whole periods, for a map that wraps).
 template <typename Visit>
 void rasterizeUvs(const UvMap& uvs, const std::vector<int>& faceTiles, int udim, int w, int h, int steps, double inset, int newton,
-                  Visit&& visit) {
-    const glm::dvec2 origin = detail::udimOrigin(udim);
+                  Visit&& visit, glm::dvec2 shift = glm::dvec2(0.0)) {
+    const glm::dvec2 origin = detail::udimOrigin(udim) + shift;
     const glm::dvec2 size(w, h);
     // texel coordinates: x = (s - origin) w - 1/2, y = (1 - (t - origin)) h - 1/2
     const auto texel = [&](glm::dvec2 uv) { return glm::dvec2((uv.x - origin.x) * w, (1.0 - (uv.y - origin.y)) * h) - 0.5; };
-    std::vector<glm::dvec2> grid(static_cast<std::size_t>((steps + 1) * (steps + 1)));
+    std::vector<glm::dvec2> grid;
     for (int t = 0; t < uvs.ptexFaceCount(); ++t) {
         if (faceTiles[static_cast<std::size_t>(t)] != udim) continue;
-        for (int j = 0; j <= steps; ++j)
-            for (int i = 0; i <= steps; ++i)
-                grid[static_cast<std::size_t>(j * (steps + 1) + i)] = texel(uvs(t, static_cast<double>(i) / steps, static_cast<double>(j) / steps));
-        for (int j = 0; j < steps; ++j)
-            for (int i = 0; i < steps; ++i)
+        const int n = uvs.isSubFace(t) ? steps : 2 * steps;
+        grid.resize(static_cast<std::size_t>((n + 1) * (n + 1)));
+        for (int j = 0; j <= n; ++j)
+            for (int i = 0; i <= n; ++i)
+                grid[static_cast<std::size_t>(j * (n + 1) + i)] = texel(uvs(t, static_cast<double>(i) / n, static_cast<double>(j) / n));
+        for (int j = 0; j < n; ++j)
+            for (int i = 0; i < n; ++i)
                 for (int corner = 0; corner < 2; ++corner) {
                     // corners (parameter, texel position) of one triangle of the cell
                     const glm::ivec2 c[3] = {corner == 0 ? glm::ivec2(i, j) : glm::ivec2(i + 1, j + 1), glm::ivec2(i + 1, j),
                                              glm::ivec2(i, j + 1)};
                     glm::dvec2 p[3], q[3];
                     for (int m = 0; m < 3; ++m) {
-                        p[m] = grid[static_cast<std::size_t>(c[m].y * (steps + 1) + c[m].x)];
-                        q[m] = glm::dvec2(c[m]) / static_cast<double>(steps);
+                        p[m] = grid[static_cast<std::size_t>(c[m].y * (n + 1) + c[m].x)];
+                        q[m] = glm::dvec2(c[m]) / static_cast<double>(n);
                     }
                     const double area = (p[1].x - p[0].x) * (p[2].y - p[0].y) - (p[2].x - p[0].x) * (p[1].y - p[0].y);
                     if (!(std::abs(area) > 1e-14)) continue;
-                    const int x0 = std::max(0, static_cast<int>(std::ceil(std::min({p[0].x, p[1].x, p[2].x}) - 1e-9)));
-                    const int x1 = std::min(w - 1, static_cast<int>(std::floor(std::max({p[0].x, p[1].x, p[2].x}) + 1e-9)));
-                    const int y0 = std::max(0, static_cast<int>(std::ceil(std::min({p[0].y, p[1].y, p[2].y}) - 1e-9)));
-                    const int y1 = std::min(h - 1, static_cast<int>(std::floor(std::max({p[0].y, p[1].y, p[2].y}) + 1e-9)));
+                    // the texel range, clamped in double first (UVs far outside would overflow int)
+                    const auto first = [](double a, int extent) { return static_cast<int>(std::clamp(std::ceil(a - 1e-9), 0.0, static_cast<double>(extent))); };
+                    const auto last = [](double a, int extent) { return static_cast<int>(std::clamp(std::floor(a + 1e-9), -1.0, extent - 1.0)); };
+                    const int x0 = first(std::min({p[0].x, p[1].x, p[2].x}), w), x1 = last(std::max({p[0].x, p[1].x, p[2].x}), w);
+                    const int y0 = first(std::min({p[0].y, p[1].y, p[2].y}), h), y1 = last(std::max({p[0].y, p[1].y, p[2].y}), h);
                     for (int y = y0; y <= y1; ++y)
                         for (int x = x0; x <= x1; ++x) {
                             const glm::dvec2 z(x, y);
@@ -127,7 +135,7 @@ void rasterizeUvs(const UvMap& uvs, const std::vector<int>& faceTiles, int udim,
                             if (inset > 0 ? (w0 <= lo || w1 <= lo || w2 <= lo) : (w0 < lo || w1 < lo || w2 < lo)) continue;
                             glm::dvec2 uv = w0 * q[0] + w1 * q[1] + w2 * q[2];
                             const glm::dvec2 target = origin + glm::dvec2((x + 0.5) / size.x, 1.0 - (y + 0.5) / size.y);
-                            for (int n = 0; n < newton; ++n) {
+                            for (int step = 0; step < newton; ++step) {
                                 const UvSample s = uvs.evaluate(t, uv.x, uv.y);
                                 const double det = s.du.x * s.dv.y - s.dv.x * s.du.y;
                                 if (!(std::abs(det) > 1e-300)) break;
@@ -213,6 +221,11 @@ inline DisplacementFunction mapSource(std::shared_ptr<const UvMap> uvs, const He
     if (o.filter != MapFilter::Point && k.size() != static_cast<std::size_t>(uvs->ptexFaceCount()))
         throw ArgumentError("mapSource: " + std::to_string(k.size()) + " tile sizes for " +
                             std::to_string(uvs->ptexFaceCount()) + " ptex faces");
+    if (o.filter != MapFilter::Point)
+        for (std::size_t t = 0; t < k.size(); ++t)
+            if (k[t] < kMinTileLog2 || k[t] > kMaxTileLog2)
+                throw ArgumentError("mapSource: tile size 2^" + std::to_string(k[t]) + " of ptex face " + std::to_string(t) +
+                                    " out of range [2^" + std::to_string(kMinTileLog2) + ", 2^" + std::to_string(kMaxTileLog2) + "]");
     if (o.maxTaps < 1 || o.maxTaps > 256) throw ArgumentError("mapSource: maxTaps must be in [1, 256]");
     if (maps.udim && o.wrap) throw ArgumentError("height map: wrapping does not apply to a UDIM set");
     int finest = 1;
@@ -230,7 +243,7 @@ inline DisplacementFunction mapSource(std::shared_ptr<const UvMap> uvs, const He
             for (const glm::dvec2 p : {glm::dvec2(0, 0), glm::dvec2(1, 0), glm::dvec2(1, 1), glm::dvec2(0, 1)}) {
                 const glm::dvec2 q = (*uvs)(t, p.x, p.y);
                 // Within half a texel outside [0, 1] the clamped lookup reads the border texel anyway
-                // (real UV layouts, e.g. Spot's, overshoot by a fraction of a texel).
+                // (layouts that touch the border overshoot by rounding); further out needs wrap.
                 if (q.x < -sx || q.x > 1.0 + sx || q.y < -sy || q.y > 1.0 + sy)
                     throw ArgumentError(name + ": face " + std::to_string(uvs->baseFace(t) + 1) + " has texture coordinate (" +
                                         std::to_string(q.x) + ", " + std::to_string(q.y) +
@@ -315,10 +328,12 @@ inline DisplacementFunction imageSource(const ControlMesh& mesh, std::shared_ptr
 /// whose texels covered by a face hold the height h with D = offset + scale * (h - midLevel),
 /// D evaluated from the tiles' finest level at the face's (u, v) there (rasterizeUvs, 8 x 8
 /// cells a face and 3 Newton steps); `covered` (if given) receives 1 per texel a face covers.
-/// Texels no face covers hold midLevel. For round-trip checks and for other tools. Throws
-/// ArgumentError for a size out of range, scale 0 or a UV map of another mesh.
+/// Texels no face covers hold midLevel. With `wrap` (one image, udim 0) the parts of faces
+/// outside [0, 1]^2 land where a wrapping lookup reads them (the square and its 8 neighbours
+/// are rasterised). For round-trip checks and for other tools. Throws ArgumentError for a
+/// size out of range, scale 0, or a tile count other than the UV map's ptex faces.
 inline HeightImage tilesToMap(const UvMap& uvs, const TileSet& tiles, int udim, int w, int h, double scale, double offset,
-                              double midLevel, std::vector<std::uint8_t>* covered = nullptr) {
+                              double midLevel, std::vector<std::uint8_t>* covered = nullptr, bool wrap = false) {
     if (w < 1 || h < 1 || w > kMaxHeightImageSize || h > kMaxHeightImageSize)
         throw ArgumentError("map size " + std::to_string(w) + " x " + std::to_string(h) + " out of range [1, " +
                             std::to_string(kMaxHeightImageSize) + "]");
@@ -333,11 +348,14 @@ inline HeightImage tilesToMap(const UvMap& uvs, const TileSet& tiles, int udim, 
     img.height = h;
     img.values.assign(static_cast<std::size_t>(w) * static_cast<std::size_t>(h), static_cast<float>(midLevel));
     if (covered) covered->assign(img.values.size(), 0);
-    rasterizeUvs(uvs, faceTiles, udim, w, h, 8, 0.0, 3, [&](int x, int y, int t, double u, double v) {
+    if (wrap && udim != 0) throw ArgumentError("map: wrapping does not apply to a UDIM tile");
+    const auto write = [&](int x, int y, int t, double u, double v) {
         const std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x);
         img.values[i] = static_cast<float>((tiles.evaluate<double>(t, 0, glm::dvec2(u, v)) - offset) / scale + midLevel);
         if (covered) (*covered)[i] = 1;
-    });
+    };
+    for (int dy = wrap ? -1 : 0; dy <= (wrap ? 1 : 0); ++dy)
+        for (int dx = wrap ? -1 : 0; dx <= (wrap ? 1 : 0); ++dx) rasterizeUvs(uvs, faceTiles, udim, w, h, 8, 0.0, 3, write, glm::dvec2(dx, dy));
     return img;
 }
 

@@ -87,6 +87,8 @@ class UvMap {
     int ptexFaceCount() const { return static_cast<int>(ptexBase_.size()); }
     /// The base face a ptex face belongs to.
     int baseFace(int ptexFace) const { return ptexBase_[static_cast<std::size_t>(ptexFace)]; }
+    /// Whether a ptex face is a sub-face of a non-quad (its edges are half base edges).
+    bool isSubFace(int ptexFace) const { return subFace_[static_cast<std::size_t>(ptexFace)] >= 0; }
     const std::string& meshName() const { return name_; }
 
   private:
@@ -184,13 +186,13 @@ inline UvSample UvMap::evaluate(int t, double u, double v) const {
     const Bfr::Parameterization param = s->surface.GetParameterization();
     const int sub = subFace_[static_cast<std::size_t>(t)];
     double coord[2] = {u, v};
-    double scale = 1.0; // d(face coordinate) / d(ptex coordinate): sub-faces are scaled copies
+    double scale = 1.0; // d(face coordinate) / d(ptex coordinate)
     if (sub >= 0) {
-        const double in[2] = {u, v}, in1[2] = {u + 1.0, v};
-        double c1[2];
+        // Bfr's quad sub-faces are half-size, unrotated copies of the ptex sub-face's square
+        // (checked against Bfr's own linear evaluation in tests/test_map_source.cpp).
+        const double in[2] = {u, v};
         param.ConvertNormalizedSubFaceToCoord(sub, in, coord);
-        param.ConvertNormalizedSubFaceToCoord(sub, in1, c1);
-        scale = c1[0] - coord[0];
+        scale = 0.5;
     }
     const Bfr::Surface<double>::PointDescriptor pd(2);
     double p[2], du[2], dv[2];
