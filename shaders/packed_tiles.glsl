@@ -1,7 +1,12 @@
 // The packed displacement lookup of the renderer, shared by shaders/render and the parity
 // shader (shaders/parity_packed.comp): PackedTiles::sampleD1 (tileset.h), gather for gather.
 // The includer declares `float texels[]` (the packed texture, row by row) and
-// `int packedWidth()` (its width in texels) before including this file.
+// `int packedWidth()` (its width in texels) before including this file; or it defines
+// DM_PACKED_TEXEL(x, y), the texel at column x, row y, to read the texture some other way
+// (half floats in a storage buffer, a sampled image: shaders/render/common.glsl).
+#ifndef DM_PACKED_TEXEL
+#define DM_PACKED_TEXEL(x, y) texels[(y) * packedWidth() + (x)]
+#endif
 
 // (D, D_u, D_v) of level m of the tile of record r at its (u, v).
 vec3 packedLevelD1(uvec4 r, int m, vec2 uv) {
@@ -10,7 +15,7 @@ vec3 packedLevelD1(uvec4 r, int m, vec2 uv) {
     mat3 c;
     for (int i = 0; i < 3; ++i) {
         for (int j = 0; j < 3; ++j) {
-            c[i][j] = texels[(texel.y + j) * packedWidth() + texel.x + i];
+            c[i][j] = DM_PACKED_TEXEL(texel.x + i, texel.y + j);
         }
     }
     return dmTileD1(c, t, dmRecordTileSize(r) >> m);

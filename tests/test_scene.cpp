@@ -58,6 +58,12 @@ void checkSame(const Scene& a, const Scene& b) {
     CHECK(da.wrap == db.wrap);
     CHECK(da.k == db.k);
     CHECK(da.mixedSizes == db.mixedSizes);
+    CHECK(da.midLevel == db.midLevel);
+    CHECK(da.channel == db.channel);
+    CHECK(da.uv == db.uv);
+    CHECK(da.mapFilter == db.mapFilter);
+    CHECK(da.sizes == db.sizes);
+    CHECK(da.allowOverlap == db.allowOverlap);
     CHECK(da.filter == db.filter);
     CHECK(da.sharpBand == db.sharpBand);
     CHECK(a.camera.eye == b.camera.eye);
@@ -87,6 +93,8 @@ void checkSame(const Scene& a, const Scene& b) {
     CHECK(ea.maxFactor == eb.maxFactor);
     CHECK(ea.spacing == eb.spacing);
     CHECK(ea.wireframe == eb.wireframe);
+    CHECK(ea.texelFormat == eb.texelFormat);
+    CHECK(ea.texelPath == eb.texelPath);
 }
 
 const char* kFullScene = R"({
@@ -99,7 +107,8 @@ const char* kFullScene = R"({
   "ambient": 0.3, "albedo": [0.1, 0.2, 0.3], "background": [1, 0.5, 0],
   "resolution": [64, 4096], "baselineTexels": 17,
   "effects": {"technique": "baseline", "normals": "auto", "autoTolerance": 0.5, "lod": "texelratio",
-              "tessellation": {"method": "area", "value": 12.5, "max": 32, "spacing": "integer"}, "wireframe": true}
+              "tessellation": {"method": "area", "value": 12.5, "max": 32, "spacing": "integer"}, "wireframe": true,
+              "texelFormat": "half", "texelPath": "image"}
 })";
 } // namespace
 
@@ -212,8 +221,20 @@ TEST_CASE("scene: every key parsed, and toJson round-trips", "[scene]") {
     CHECK(s.effects.maxFactor == 32);
     CHECK(s.effects.spacing == Spacing::Integer);
     CHECK(s.effects.wireframe);
+    CHECK(s.effects.texelFormat == TexelFormat::Half);
+    CHECK(s.effects.texelPath == TexelPath::Image);
 
-    for (const Scene& x : {s, defaultScene(), parseScene("{}", "empty", "")}) {
+    // The map keys, none at its default (sizes "texels" cannot go with mixedSizes).
+    const Scene maps = parseScene(R"({"displacement": {"height": "h.<UDIM>.exr", "midLevel": 0.5, "channel": "G", "uv": "corners+1",
+                                                       "mapFilter": "tent", "sizes": "texels", "allowOverlap": true}})",
+                                  "maps.json", "");
+    CHECK(maps.displacement.midLevel == 0.5);
+    CHECK(maps.displacement.channel == "G");
+    CHECK(maps.displacement.uv == "corners+1");
+    CHECK(maps.displacement.mapFilter == "tent");
+    CHECK(maps.displacement.sizes == "texels");
+    CHECK(maps.displacement.allowOverlap);
+    for (const Scene& x : {s, maps, defaultScene(), parseScene("{}", "empty", "")}) {
         const std::string text = toJson(x);
         INFO(text);
         const Scene y = parseScene(text, x.name, x.baseDir);
@@ -289,7 +310,9 @@ TEST_CASE("scene: rejected inputs name the scene and the key", "[scene][errors]"
         {R"({"baselineTexels": 1025})", "baselineTexels: 1025 is out of range [0, 1024]"},
         {R"({"effects": {"shadows": true}})",
          "scene 'bad.json': effects: unknown effect 'shadows' (known: technique, normals, autoTolerance, lod, "
-         "tessellation, wireframe)"},
+         "tessellation, wireframe, texelFormat, texelPath)"},
+        {R"({"effects": {"texelFormat": "fp16"}})", "effects.texelFormat: unknown value 'fp16' (float, half)"},
+        {R"({"effects": {"texelPath": "texture"}})", "effects.texelPath: unknown value 'texture' (buffer, image)"},
         {R"({"effects": {"normals": "fancy"}})",
          "scene 'bad.json': effects.normals: unknown value 'fancy' (approximate, accurate, auto)"},
         {R"({"effects": {"technique": "raymarch"}})", "effects.technique: unknown value 'raymarch' (base, displaced, baseline)"},

@@ -69,7 +69,7 @@ enum Binding : std::uint32_t {
     kParams, kPoints, kPatchIndices, kPatches, kNodes, kFaceRoots, kCornerNormals, kTexels, kRecords,
     kFaces, kBaseVertices, kRingIndices, kTileVertices, kSpreadIndices, kDrawFaces, kCapture,
     kStorageBindings, // = 16
-    kBaselineHeight = kStorageBindings, kBaselineNormal, kBindingCount
+    kBaselineHeight = kStorageBindings, kBaselineNormal, kPackedImage, kBindingCount
 };
 
 template <class T> std::size_t bytesOf(const std::vector<T>& v) { return v.size() * sizeof(T); }
@@ -208,10 +208,16 @@ struct SurfaceRenderer::Impl {
         Binding binding;
         std::vector<std::uint8_t> bytes;
         VkDeviceSize offset = 0;
+        /// The image path: the texel rectangle (x, y, width, height) of the packed image to copy
+        /// from the texel buffer once it holds these bytes; width 0: none.
+        glm::ivec4 imageRect{0};
     };
     std::vector<Pending> pending; // geometry and tiles for the next recordUpdate
     PackedTiles packed;           // what kTexels holds (edited tiles are written into it)
     Image baseHeight, baseNormal;
+    Image packedImage; // the packed tiles as an R32F / R16F image (TexelPath::Image), else 1 x 1
+    bool imagePath = false;
+    VkSampler nearest = VK_NULL_HANDLE; // packedImage is read by texelFetch only
     VkSampler sampler = VK_NULL_HANDLE;
     std::unique_ptr<DescriptorSet> descriptors;
     std::unique_ptr<GraphicsPipeline> fill, wire;
@@ -238,6 +244,9 @@ struct SurfaceRenderer::Impl {
         descriptors.reset();
         if (sampler) fn.vkDestroySampler(d, sampler, nullptr);
         sampler = VK_NULL_HANDLE;
+        if (nearest) fn.vkDestroySampler(d, nearest, nullptr);
+        nearest = VK_NULL_HANDLE;
+        packedImage = Image();
         baseNormal = Image();
         baseHeight = Image();
         buffers.clear();
@@ -289,10 +298,17 @@ struct SurfaceRenderer::Impl {
         upload(kCornerNormals, ps.cornerNormals);
         if (draw.effects.technique == Technique::Displaced) {
             packed = surface.tiles().pack();
+            if (draw.effects.texelFormat == TexelFormat::Half) packed.useHalf();
             packedWidth = packed.width;
             std::vector<glm::uvec4> records;
             for (const PatchRecord& r : packed.records) records.push_back(recordWords(r));
-            upload(kTexels, packed.texels);
+            if (packed.format == TexelFormat::Half) {
+                std::vector<std::uint16_t> halves = packed.halfTexels();
+                if (halves.size() % 2) halves.push_back(0); // whole words
+                upload(kTexels, halves);
+            } else {
+                upload(kTexels, packed.texels);
+            }
             upload(kRecords, records);
         }
         Topology topo = buildTopology(surface, atlas);
@@ -356,10 +372,56 @@ struct SurfaceRenderer::Impl {
         DISPMAP_VK_CHECK(fn, vkCreateSampler, ctx.device(), &s, nullptr, &sampler);
     }
 
+    // The packed tiles as an image for TexelPath::Image (R32F, or R16F for half texels), filled
+    // from the texel buffer, which holds the same bytes row by row; a 1 x 1 placeholder
+    // otherwise (the descriptor must be valid either way).
+    void uploadPackedImage() {
+        const Functions& fn = ctx.fn();
+        const bool use = draw.effects.technique == Technique::Displaced && draw.effects.texelPath == TexelPath::Image &&
+                         packed.width > 0 && packed.height > 0;
+        imagePath = use;
+        VkSamplerCreateInfo si{};
+        si.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO;
+        si.magFilter = si.minFilter = VK_FILTER_NEAREST;
+        si.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
+        si.addressModeU = si.addressModeV = si.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+        DISPMAP_VK_CHECK(fn, vkCreateSampler, ctx.device(), &si, nullptr, &nearest);
+        const VkFormat format = use && packed.format == TexelFormat::Half ? VK_FORMAT_R16_SFLOAT : VK_FORMAT_R32_SFLOAT;
+        if (use) {
+            requireFormat(ctx, format, VK_FORMAT_FEATURE_SAMPLED_IMAGE_BIT | VK_FORMAT_FEATURE_TRANSFER_DST_BIT,
+                          "a sampled image of the packed tiles (effects.texelPath image)");
+            const std::uint32_t limit = ctx.properties().limits.maxImageDimension2D;
+            if (static_cast<std::uint32_t>(packed.width) > limit || static_cast<std::uint32_t>(packed.height) > limit)
+                throw ArgumentError("the packed tiles are " + std::to_string(packed.width) + " x " + std::to_string(packed.height) +
+                                    " texels, beyond the device's largest image (" + std::to_string(limit) +
+                                    "): use effects.texelPath buffer");
+        }
+        const auto w = static_cast<std::uint32_t>(use ? packed.width : 1), h = static_cast<std::uint32_t>(use ? packed.height : 1);
+        packedImage = Image(ctx, w, h, format, VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT);
+        Buffer zero(ctx, 16);
+        const float nothing[4] = {0, 0, 0, 0};
+        zero.upload(nothing, sizeof nothing);
+        ctx.submitAndWait([&](VkCommandBuffer cmd) {
+            imageBarrier(fn, cmd, packedImage.image(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                         VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, 0, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                         VK_ACCESS_TRANSFER_WRITE_BIT);
+            VkBufferImageCopy region{};
+            region.bufferRowLength = use ? w : 0;
+            region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+            region.imageExtent = {w, h, 1};
+            fn.vkCmdCopyBufferToImage(cmd, use ? buffer(kTexels).handle() : zero.handle(), packedImage.image(),
+                                      VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+            imageBarrier(fn, cmd, packedImage.image(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                         VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                         VK_PIPELINE_STAGE_TESSELLATION_EVALUATION_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
+        });
+        if (use) uploaded += static_cast<std::size_t>(w) * h * (format == VK_FORMAT_R16_SFLOAT ? 2 : 4);
+    }
+
     void createDescriptors() {
         std::array<VkBuffer, kStorageBindings> storage{};
         for (std::uint32_t i = 0; i < kStorageBindings; ++i) storage[i] = buffers[i].handle();
-        const SampledImage maps[2] = {{sampler, baseHeight.view()}, {sampler, baseNormal.view()}};
+        const SampledImage maps[3] = {{sampler, baseHeight.view()}, {sampler, baseNormal.view()}, {nearest, packedImage.view()}};
         descriptors = std::make_unique<DescriptorSet>(ctx, storage, maps, VK_SHADER_STAGE_ALL_GRAPHICS);
     }
 
@@ -375,7 +437,9 @@ struct SurfaceRenderer::Impl {
                            static_cast<std::uint32_t>(displaced ? lodIndex(e.lod) : 0),
                            static_cast<std::uint32_t>(methodIndex(e.tessMethod)),
                            options.captureCapacity > 0 ? 1u : 0u,
-                           wireframe ? 1u : 0u};
+                           wireframe ? 1u : 0u,
+                           displaced && e.texelFormat == TexelFormat::Half ? 1u : 0u,
+                           displaced && e.texelPath == TexelPath::Image ? 1u : 0u};
         const std::span<const std::uint32_t> frag =
             normalTarget ? (lean ? spirv(render_frag_lean_spv) : spirv(render_frag_spv))
                          : (lean ? spirv(render_frag_color_lean_spv) : spirv(render_frag_color_spv));
@@ -426,9 +490,36 @@ struct SurfaceRenderer::Impl {
                       VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT);
         const GpuParams p = params();
         updateBuffer(fn, cmd, buffer(kParams).handle(), &p, sizeof p);
-        for (const Pending& q : pending)
+        std::vector<VkBufferImageCopy> regions;
+        for (const Pending& q : pending) {
             updateBuffer(fn, cmd, buffer(q.binding).handle(), q.bytes.data(), q.bytes.size(), q.offset);
+            if (q.imageRect.z > 0) {
+                // the rectangle's texels, read from the texel buffer (row by row, the image's width)
+                VkBufferImageCopy r{};
+                const std::size_t texelBytes = packed.format == TexelFormat::Half ? 2 : 4;
+                r.bufferOffset = (static_cast<VkDeviceSize>(q.imageRect.y) * static_cast<VkDeviceSize>(packed.width) +
+                                  static_cast<VkDeviceSize>(q.imageRect.x)) * texelBytes;
+                r.bufferRowLength = static_cast<std::uint32_t>(packed.width);
+                r.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+                r.imageOffset = {q.imageRect.x, q.imageRect.y, 0};
+                r.imageExtent = {static_cast<std::uint32_t>(q.imageRect.z), static_cast<std::uint32_t>(q.imageRect.w), 1};
+                regions.push_back(r);
+            }
+        }
         pending.clear();
+        if (!regions.empty()) {
+            // Earlier frames' shaders read the image; the buffer writes above come first.
+            memoryBarrier(fn, cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                          VK_ACCESS_TRANSFER_READ_BIT);
+            imageBarrier(fn, cmd, packedImage.image(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
+                         VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, kShaderStages, VK_ACCESS_SHADER_READ_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                         VK_ACCESS_TRANSFER_WRITE_BIT);
+            fn.vkCmdCopyBufferToImage(cmd, buffer(kTexels).handle(), packedImage.image(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                                      static_cast<std::uint32_t>(regions.size()), regions.data());
+            imageBarrier(fn, cmd, packedImage.image(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                         VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                         kShaderStages, VK_ACCESS_SHADER_READ_BIT);
+        }
         memoryBarrier(fn, cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, kShaderStages,
                       VK_ACCESS_SHADER_READ_BIT);
     }
@@ -503,17 +594,29 @@ struct SurfaceRenderer::Impl {
         for (int t : edited) // every size checked before anything is written
             if (tiles.tiles[static_cast<std::size_t>(t)].size() != packed.records[static_cast<std::size_t>(t)].tileSize)
                 throw ArgumentError("updateTiles: tile " + std::to_string(t) + " changed its size (build a new renderer)");
+        for (int t : edited) packed.checkTile(t, tiles.tiles[static_cast<std::size_t>(t)]); // half range too, before any write
         for (int t : edited) {
             packed.writeTile(t, tiles.tiles[static_cast<std::size_t>(t)]);
-            // The footprint's rows, each one update of the texture buffer.
+            // The footprint's rows, each one update of the texel buffer (half texels: whole words,
+            // so a row may take a neighbour's texel along, unchanged); the image path then copies
+            // the footprint from the buffer into the image.
             const glm::ivec4 fp = packed.footprint(t);
             for (int row = fp.y; row < fp.y + fp.w; ++row) {
                 const std::size_t first = static_cast<std::size_t>(row) * static_cast<std::size_t>(packed.width) +
                                           static_cast<std::size_t>(fp.x);
-                const auto* bytes = reinterpret_cast<const std::uint8_t*>(packed.texels.data() + first);
-                pending.push_back({kTexels, std::vector<std::uint8_t>(bytes, bytes + static_cast<std::size_t>(fp.z) * sizeof(float)),
-                                   first * sizeof(float)});
+                const std::size_t count = static_cast<std::size_t>(fp.z);
+                if (packed.format == TexelFormat::Half) {
+                    const std::size_t w0 = first / 2, w1 = (first + count + 1) / 2;
+                    std::vector<std::uint16_t> halves = packed.halfTexels(2 * w0, 2 * (w1 - w0));
+                    halves.resize(2 * (w1 - w0), 0); // past the last texel of the texture: the upload's padding
+                    const auto* bytes = reinterpret_cast<const std::uint8_t*>(halves.data());
+                    pending.push_back({kTexels, std::vector<std::uint8_t>(bytes, bytes + halves.size() * 2), w0 * 4});
+                } else {
+                    const auto* bytes = reinterpret_cast<const std::uint8_t*>(packed.texels.data() + first);
+                    pending.push_back({kTexels, std::vector<std::uint8_t>(bytes, bytes + count * sizeof(float)), first * sizeof(float)});
+                }
             }
+            if (imagePath) pending.back().imageRect = fp;
         }
     }
 };
@@ -567,6 +670,7 @@ SurfaceRenderer::SurfaceRenderer(Context& context, const SurfaceDraw& draw, cons
     Impl& m = *impl_;
     m.uploadSurface(e.technique == Technique::Baseline ? atlas : nullptr);
     m.uploadMaps(e.technique == Technique::Baseline ? atlas : nullptr);
+    m.uploadPackedImage();
     m.createDescriptors();
     m.fill = m.createPipeline(false);
     if (e.wireframe) m.wire = m.createPipeline(true);

@@ -641,7 +641,8 @@ int main(int argc, char** argv) {
     auto* mapsCmd = app.add_subcommand("maps", "displacement maps: print the table of formats, prefilters, tile sizes from the "
                                                 "texel density and UV rules (docs/figures.md)");
     mapsCmd->add_flag("--table", mapsTable, "print the table (markdown)");
-    mapsCmd->add_flag("--quick", mta.quick, "a 512 map for the formats rows instead of 2048");
+    mapsCmd->add_flag("--quick", mta.quick, "a 512 map for the formats rows instead of 2048, one frame a GPU row");
+    mapsCmd->add_option("--device", mta.device, "Vulkan device of the GPU rows (name substring; default: the first)");
     figures::BakeArgs ba;
     ba.denseDir = DISPMAP_DENSE_DIR;
     ba.skeletonDir = DISPMAP_SKELETON_DIR;

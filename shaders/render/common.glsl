@@ -21,6 +21,8 @@ layout(constant_id = 2) const int LOD = 1;        // 0 off, 1 log2 TF (§6.2), 2
 layout(constant_id = 3) const int TESS_METHOD = 0; // 0 uniform, 1 distance, 2 screen edge, 3 screen area
 layout(constant_id = 4) const bool CAPTURE = false; // TES writes its vertices (tests)
 layout(constant_id = 5) const bool WIRE = false;    // wireframe overlay pass
+layout(constant_id = 6) const bool TEXELS_HALF = false;  // tile texels as half floats (TexelFormat::Half)
+layout(constant_id = 7) const bool TEXELS_IMAGE = false; // tile texels from a sampled image (texelFetch), not a buffer
 #ifdef DM_LEAN
 #define HAS_ACCURATE false
 #define HAS_LOD false
@@ -54,7 +56,8 @@ layout(std430, set = 0, binding = 3) readonly buffer Patches { uvec4 patches[]; 
 layout(std430, set = 0, binding = 4) readonly buffer Nodes { uvec4 nodes[]; };
 layout(std430, set = 0, binding = 5) readonly buffer FaceRoots { uint faceRoots[]; };
 layout(std430, set = 0, binding = 6) readonly buffer CornerNormals { vec4 cornerNormals[]; };
-layout(std430, set = 0, binding = 7) readonly buffer Texels { float texels[]; };
+// The packed tiles' texels: float bits, or two half floats a word (low half first).
+layout(std430, set = 0, binding = 7) readonly buffer Texels { uint texelWords[]; };
 layout(std430, set = 0, binding = 8) readonly buffer Records { uvec4 records[]; };
 struct Face {
     uvec4 corners; // TileTopology vertex ids of the corners (0 (0,0), 1 (1,0), 2 (1,1), 3 (0,1))
@@ -85,10 +88,25 @@ layout(std430, set = 0, binding = 15) buffer Capture {
 };
 layout(set = 0, binding = 16) uniform sampler2D baselineHeight;
 layout(set = 0, binding = 17) uniform sampler2D baselineNormal;
+layout(set = 0, binding = 18) uniform sampler2D packedImage; // the packed tiles (R32F or R16F) with TEXELS_IMAGE
 
 int packedWidth() {
     return P.counts.z;
 }
+// Texel (x, y) of the packed tiles, from wherever the effects put them. Every path returns the
+// stored value exactly (half to float conversion is exact), so all four agree bit for bit
+// with the CPU's PackedTiles::sampleD1 on the same texels.
+float packedTexel(int x, int y) {
+    if (TEXELS_IMAGE) {
+        return texelFetch(packedImage, ivec2(x, y), 0).r;
+    }
+    int i = y * packedWidth() + x;
+    if (TEXELS_HALF) {
+        return unpackHalf2x16(texelWords[i >> 1])[i & 1];
+    }
+    return uintBitsToFloat(texelWords[i]);
+}
+#define DM_PACKED_TEXEL(x, y) packedTexel(x, y)
 #include "../packed_tiles.glsl"
 
 // (D, D_u, D_v) at face (u, v) read at resolution rho (the tile records are per Ptex face),

@@ -392,6 +392,84 @@ TEST_CASE("engine: edited tiles through updateTiles render what a renderer of th
     dmgpu::checkNoValidationMessages();
 }
 
+TEST_CASE("engine: half texels and the image path render what the CPU's texels say, bit for bit", "[engine]") {
+    // The GPU reads texels exactly whichever way they are stored (uintBitsToFloat, unpackHalf2x16,
+    // texelFetch of R32F / R16F), so: the image path renders the buffer path's image bit for bit,
+    // and half texels render what float texels of the half-rounded tiles render.
+    Context& ctx = dmgpu::context();
+    const ControlMesh mesh = builtin::defaultMesh();
+    const BaseSurface base(mesh);
+    const TileSet tiles = buildTiles(mesh, uniformTileSizes(mesh, 4), FunctionSource(builtin::defaultDisplacement));
+    TileSet halved = tiles;
+    for (Tile& t : halved.tiles)
+        for (float& c : t.coefficients) c = halfValue(halfBits(c));
+    const DisplacedSurface surface(base, tiles), halfSurface(base, halved);
+    const auto render = [&](const DisplacedSurface& surf, TexelFormat format, TexelPath path) {
+        SurfaceDraw draw = smallDraw();
+        draw.effects.texelFormat = format;
+        draw.effects.texelPath = path;
+        return SurfaceRenderer(ctx, draw, surf).render(1, 0);
+    };
+    const RenderedImage floatBuffer = render(surface, TexelFormat::Float, TexelPath::Buffer);
+    const RenderedImage floatImage = render(surface, TexelFormat::Float, TexelPath::Image);
+    const RenderedImage halfBuffer = render(surface, TexelFormat::Half, TexelPath::Buffer);
+    const RenderedImage halfImage = render(surface, TexelFormat::Half, TexelPath::Image);
+    const RenderedImage rounded = render(halfSurface, TexelFormat::Float, TexelPath::Buffer);
+    REQUIRE(coveredPixels(floatBuffer) > floatBuffer.normals.size() / 20);
+    CHECK(floatImage.rgba == floatBuffer.rgba);
+    CHECK(floatImage.depth == floatBuffer.depth);
+    CHECK(sameBits(floatImage.normals, floatBuffer.normals));
+    CHECK(halfImage.rgba == halfBuffer.rgba);
+    CHECK(halfImage.depth == halfBuffer.depth);
+    CHECK(sameBits(halfImage.normals, halfBuffer.normals));
+    CHECK(halfBuffer.rgba == rounded.rgba);
+    CHECK(halfBuffer.depth == rounded.depth);
+    CHECK(sameBits(halfBuffer.normals, rounded.normals));
+    CHECK(halfBuffer.depth != floatBuffer.depth); // the rounding is there to see
+    dmgpu::checkNoValidationMessages();
+}
+
+TEST_CASE("engine: edits reach half texels and the image path", "[engine]") {
+    // As the edit test above, for every texel format and path: updateTiles writes the edited
+    // footprints (whole words of half texels; then the image's rectangles) and the frame equals
+    // a fresh renderer's of the edited tiles.
+    Context& ctx = dmgpu::context();
+    const ControlMesh mesh = builtin::defaultMesh();
+    const BaseSurface base(mesh);
+    for (const TexelFormat format : {TexelFormat::Float, TexelFormat::Half})
+        for (const TexelPath path : {TexelPath::Buffer, TexelPath::Image}) {
+            INFO(toString(format) << " texels, " << toString(path));
+            TileFitter fitter(mesh, uniformTileSizes(mesh, 4), FunctionSource(builtin::defaultDisplacement));
+            const DisplacedSurface surface(base, fitter.tiles());
+            SurfaceDraw draw = smallDraw();
+            draw.effects.texelFormat = format;
+            draw.effects.texelPath = path;
+            SurfaceRenderer edited(ctx, draw, surface);
+            const RenderedImage before = edited.render(1, 0);
+            const auto bumped = [](int face, double u, double v) {
+                const double r2 = (u - 0.5) * (u - 0.5) + (v - 0.5) * (v - 0.5);
+                return builtin::defaultDisplacement(face, u, v) + (face < 4 ? 0.08 * std::exp(-12.0 * r2) : 0.0);
+            };
+            const std::vector<int> changed = fitter.refit({0, 1, 2, 3}, bumped);
+            edited.updateTiles(changed);
+            const RenderedImage after = edited.render(1, 0);
+            const TileSet copy = fitter.tiles();
+            const DisplacedSurface fresh(base, copy);
+            const RenderedImage reference = SurfaceRenderer(ctx, draw, fresh).render(1, 0);
+            CHECK(after.rgba == reference.rgba);
+            CHECK(after.depth == reference.depth);
+            CHECK(sameBits(after.normals, reference.normals));
+            CHECK(after.rgba != before.rgba);
+            // a coefficient beyond the half range: refused before anything is written
+            if (format == TexelFormat::Half) {
+                const std::vector<int> huge = fitter.refit({1}, [&](int face, double u, double v) { return face == 1 ? 1e5 : bumped(face, u, v); });
+                CHECK_THROWS_WITH(edited.updateTiles(huge), Catch::Contains("beyond the half-float range"));
+                CHECK(edited.render(1, 0).rgba == reference.rgba); // nothing was written
+            }
+        }
+    dmgpu::checkNoValidationMessages();
+}
+
 TEST_CASE("engine: every light of a draw is shaded (up to kMaxLights)", "[engine]") {
     Context& ctx = dmgpu::context();
     Surface s;

@@ -86,11 +86,56 @@ inline glm::uvec4 recordWords(const PatchRecord& r) {
     return w;
 }
 
+/// How the packed tiles' texels are stored for the GPU: 32-bit floats, or IEEE 16-bit half
+/// floats (the paper's storage, §4.3: half the memory, about 3 decimal digits).
+enum class TexelFormat { Float, Half };
+
+inline const char* toString(TexelFormat f) { return f == TexelFormat::Float ? "float" : "half"; }
+
+/// The IEEE 754 binary16 bits nearest to x, ties to even (what an R16F upload or
+/// unpackHalf2x16 decodes exactly back with halfValue). |x| >= 65520 gives infinity, NaN a NaN.
+/// Encoding happens here, on the CPU, so that the GPU only decodes, which is exact: the CPU
+/// and GPU lookups of half texels stay bit for bit the same.
+inline std::uint16_t halfBits(float x) {
+    std::uint32_t f = 0;
+    std::memcpy(&f, &x, sizeof f);
+    const auto sign = static_cast<std::uint32_t>((f >> 16) & 0x8000u);
+    const std::uint32_t a = f & 0x7fffffffu;
+    if (a > 0x7f800000u) return static_cast<std::uint16_t>(sign | 0x7e00u);  // NaN
+    if (a >= 0x477ff000u) return static_cast<std::uint16_t>(sign | 0x7c00u); // 65520 and up: infinity
+    if (a < 0x38800000u) {
+        // below 2^-14: a subnormal half, a multiple of 2^-24 (the scaling is exact; ties to even)
+        const float m = std::nearbyint(std::fabs(x) * 16777216.0f);
+        return static_cast<std::uint16_t>(sign | static_cast<std::uint32_t>(m));
+    }
+    std::uint32_t h = (a - 0x38000000u) >> 13; // the exponent rebiased from 127 to 15
+    const std::uint32_t rest = a & 0x1fffu;    // the 13 bits dropped
+    if (rest > 0x1000u || (rest == 0x1000u && (h & 1u))) ++h; // a carry moves into the exponent, as it should
+    return static_cast<std::uint16_t>(sign | h);
+}
+
+/// The value of half-float bits h (exact in float).
+inline float halfValue(std::uint16_t h) {
+    const std::uint32_t sign = (static_cast<std::uint32_t>(h) & 0x8000u) << 16;
+    const std::uint32_t e = (static_cast<std::uint32_t>(h) >> 10) & 0x1fu, m = static_cast<std::uint32_t>(h) & 0x3ffu;
+    if (e == 0) {
+        const float v = std::ldexp(static_cast<float>(m), -24);
+        return sign ? -v : v;
+    }
+    const std::uint32_t f = sign | (e == 31 ? 0x7f800000u : (e + 112u) << 23) | (m << 13);
+    float out = 0;
+    std::memcpy(&out, &f, sizeof out);
+    return out;
+}
+
 /// All tiles packed into one texture: each tile's footprint (kernels dmTileFootprint) at a
 /// per-tile offset; unused texels hold 0.
 struct PackedTiles {
     int width = 0, height = 0;
-    std::vector<float> texels;          ///< row by row, width * height
+    /// Row by row, width * height; with TexelFormat::Half each is a half float's value (the
+    /// upload is halfTexels()), so that sampleD1 reads what the GPU reads.
+    std::vector<float> texels;
+    TexelFormat format = TexelFormat::Float;
     std::vector<PatchRecord> records;   ///< one per tile (depth 0: the tile is the patch)
     std::size_t usedTexels = 0;         ///< texels inside footprints
     std::size_t paperTexels = 0;        ///< sum over tiles of (1.5 s + 4)(s + 2), §4.3
@@ -102,15 +147,12 @@ struct PackedTiles {
         return {r.globalTextureOffsetXY[0], r.globalTextureOffsetXY[1], fp.x, fp.y};
     }
     /// Writes every level of `tile` into the footprint of record `index` (an edited tile of the
-    /// size it was packed with: pack() lays out by size, so the layout stays). ArgumentError for
-    /// an index out of range or another size.
+    /// size it was packed with: pack() lays out by size, so the layout stays), rounded to half
+    /// floats with TexelFormat::Half. ArgumentError for an index out of range, another size, or
+    /// (half) a coefficient beyond the half range.
     void writeTile(int index, const Tile& tile) {
-        if (index < 0 || static_cast<std::size_t>(index) >= records.size())
-            throw ArgumentError("packed tiles: record " + std::to_string(index) + " out of range");
+        checkTile(index, tile);
         const PatchRecord& r = records[static_cast<std::size_t>(index)];
-        if (tile.size() != r.tileSize)
-            throw ArgumentError("packed tiles: tile " + std::to_string(index) + " has size " + std::to_string(tile.size()) +
-                                ", packed with " + std::to_string(r.tileSize) + " (re-pack after changing sizes)");
         const glm::ivec2 at(r.globalTextureOffsetXY[0], r.globalTextureOffsetXY[1]);
         for (int m = 0; m < tile.k; ++m) {
             const glm::ivec2 o = at + kern::dmMipOffset(tile.k, m);
@@ -118,10 +160,66 @@ struct PackedTiles {
             for (int b = 0; b < n; ++b)
                 for (int a = 0; a < n; ++a)
                     texels[static_cast<std::size_t>(o.y + b) * static_cast<std::size_t>(width) + static_cast<std::size_t>(o.x + a)] =
-                        tile.at(m, a, b);
+                        rounded(tile.at(m, a, b), index);
         }
     }
 
+    /// What writeTile checks before it writes: the index, the size, and (half texels) the range.
+    void checkTile(int index, const Tile& tile) const {
+        if (index < 0 || static_cast<std::size_t>(index) >= records.size())
+            throw ArgumentError("packed tiles: record " + std::to_string(index) + " out of range");
+        const PatchRecord& r = records[static_cast<std::size_t>(index)];
+        if (tile.size() != r.tileSize)
+            throw ArgumentError("packed tiles: tile " + std::to_string(index) + " has size " + std::to_string(tile.size()) +
+                                ", packed with " + std::to_string(r.tileSize) + " (re-pack after changing sizes)");
+        if (format == TexelFormat::Half)
+            for (float c : tile.coefficients) (void)rounded(c, index);
+    }
+
+    /// Stores every texel as a half float from now on (TexelFormat::Half): the texels are
+    /// rounded to the nearest half, and so are the tiles writeTile writes later. ArgumentError
+    /// naming the tile for a coefficient beyond the half range (|c| >= 65520), before any
+    /// texel changes.
+    void useHalf() {
+        std::vector<float> out(texels.size());
+        for (std::size_t i = 0; i < texels.size(); ++i) {
+            out[i] = halfValue(halfBits(texels[i]));
+            if (std::isinf(out[i])) {
+                const int x = static_cast<int>(i % static_cast<std::size_t>(width)), y = static_cast<int>(i / static_cast<std::size_t>(width));
+                int tile = -1;
+                for (std::size_t r = 0; r < records.size() && tile < 0; ++r) {
+                    const glm::ivec4 fp = footprint(static_cast<int>(r));
+                    if (x >= fp.x && x < fp.x + fp.z && y >= fp.y && y < fp.y + fp.w) tile = static_cast<int>(r);
+                }
+                throw ArgumentError("packed tiles: tile " + std::to_string(tile) + " holds " + std::to_string(texels[i]) +
+                                    ", beyond the half-float range (65504): keep float texels");
+            }
+        }
+        texels = std::move(out);
+        format = TexelFormat::Half;
+    }
+
+    /// The half-float bits of `count` texels from `first` (row by row): what a half-float
+    /// storage buffer or R16F texture holds. Meaningful after useHalf().
+    std::vector<std::uint16_t> halfTexels(std::size_t first = 0, std::size_t count = static_cast<std::size_t>(-1)) const {
+        first = std::min(first, texels.size());
+        count = std::min(count, texels.size() - first);
+        std::vector<std::uint16_t> out(count);
+        for (std::size_t i = 0; i < count; ++i) out[i] = halfBits(texels[first + i]);
+        return out;
+    }
+
+  private:
+    float rounded(float c, int index) const {
+        if (format == TexelFormat::Float) return c;
+        const float h = halfValue(halfBits(c));
+        if (std::isinf(h))
+            throw ArgumentError("packed tiles: tile " + std::to_string(index) + " holds " + std::to_string(c) +
+                                ", beyond the half-float range (65504): keep float texels");
+        return h;
+    }
+
+  public:
     /// The renderer's displacement lookup on the CPU, kernel for kernel what the tessellation
     /// evaluation shader does: (D, D_u, D_v) with respect to the tile's (u, v) of `record`,
     /// reading the two mip levels that resolution rho selects (dmSelectMips, clamped by the

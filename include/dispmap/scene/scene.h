@@ -15,7 +15,7 @@
 //     "ambient": 0.15, "albedo": [0.8, 0.78, 0.74], "background": [0, 0, 0],
 //     "resolution": [320, 240], "baselineTexels": 0,
 //     "effects": {"technique": "displaced", "normals": "approximate", "autoTolerance": 2,
-//                 "lod": "tessfactor", "wireframe": false,
+//                 "lod": "tessfactor", "wireframe": false, "texelFormat": "float", "texelPath": "buffer",
 //                 "tessellation": {"method": "uniform", "value": 8, "max": 64,
 //                                  "spacing": "fractional_even"}} }
 //
@@ -51,6 +51,7 @@
 #include <glm/glm.hpp>
 #include <nlohmann/json.hpp>
 
+#include "dispmap/surface/uv_map.h"
 #include "dispmap/surface/builtin.h"
 #include "dispmap/surface/displaced_surface.h"
 #include "dispmap/surface/draw.h"
@@ -151,6 +152,8 @@ inline constexpr SceneChoice<TessMethod> kSceneTessMethods[] = {{"uniform", Tess
                                                                 {"area", TessMethod::ScreenArea}};
 inline constexpr SceneChoice<Spacing> kSceneSpacings[] = {{"fractional_even", Spacing::FractionalEven},
                                                           {"integer", Spacing::Integer}};
+inline constexpr SceneChoice<TexelFormat> kSceneTexelFormats[] = {{"float", TexelFormat::Float}, {"half", TexelFormat::Half}};
+inline constexpr SceneChoice<TexelPath> kSceneTexelPaths[] = {{"buffer", TexelPath::Buffer}, {"image", TexelPath::Image}};
 
 template <typename E, std::size_t N> const char* sceneChoiceName(const SceneChoice<E> (&table)[N], E value) {
     for (const SceneChoice<E>& c : table)
@@ -392,7 +395,8 @@ inline Scene parseSceneDocument(const nlohmann::json& root, const std::string& n
         if (has(d, "channel")) o.channel = r.string(d["channel"], "displacement.channel");
         if (has(d, "uv")) {
             o.uv = r.string(d["uv"], "displacement.uv");
-            r.oneOf(o.uv, "displacement.uv", {"mesh", "linear", "smooth", "corners", "corners+1", "corners+2", "boundaries"});
+            if (!parseUvInterpolation(o.uv))
+                r.fail("displacement.uv", "unknown value '" + detail::SceneReader::excerpt(o.uv) + "' (" + uvInterpolationNames() + ")");
         }
         if (has(d, "mapFilter")) {
             o.mapFilter = r.string(d["mapFilter"], "displacement.mapFilter");
@@ -464,7 +468,8 @@ inline Scene parseSceneDocument(const nlohmann::json& root, const std::string& n
 
     if (has(root, "effects")) {
         const Json& e = root["effects"];
-        r.object(e, "effects", {"technique", "normals", "autoTolerance", "lod", "tessellation", "wireframe"}, "effect");
+        r.object(e, "effects", {"technique", "normals", "autoTolerance", "lod", "tessellation", "wireframe", "texelFormat", "texelPath"},
+                 "effect");
         SurfaceEffects& o = s.effects;
         if (has(e, "technique")) o.technique = r.choice(e["technique"], "effects.technique", detail::kSceneTechniques);
         if (has(e, "normals")) o.normals = r.choice(e["normals"], "effects.normals", detail::kSceneNormals);
@@ -475,6 +480,8 @@ inline Scene parseSceneDocument(const nlohmann::json& root, const std::string& n
             o.lod = formerName ? MipSelection::TexelRatio : r.choice(e["lod"], "effects.lod", detail::kSceneLods);
         }
         if (has(e, "wireframe")) o.wireframe = r.boolean(e["wireframe"], "effects.wireframe");
+        if (has(e, "texelFormat")) o.texelFormat = r.choice(e["texelFormat"], "effects.texelFormat", detail::kSceneTexelFormats);
+        if (has(e, "texelPath")) o.texelPath = r.choice(e["texelPath"], "effects.texelPath", detail::kSceneTexelPaths);
         if (has(e, "tessellation")) {
             const Json& t = e["tessellation"];
             r.object(t, "effects.tessellation", {"method", "value", "max", "spacing"});
@@ -541,7 +548,9 @@ inline std::string toJson(const Scene& s) {
                       {"value", e.tessValue},
                       {"max", e.maxFactor},
                       {"spacing", detail::sceneChoiceName(detail::kSceneSpacings, e.spacing)}}},
-                    {"wireframe", e.wireframe}};
+                    {"wireframe", e.wireframe},
+                    {"texelFormat", detail::sceneChoiceName(detail::kSceneTexelFormats, e.texelFormat)},
+                    {"texelPath", detail::sceneChoiceName(detail::kSceneTexelPaths, e.texelPath)}};
     // Paths need not be UTF-8; JSON must be: invalid bytes become U+FFFD.
     return j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }

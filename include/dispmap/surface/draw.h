@@ -70,6 +70,13 @@ struct Light {
     glm::dvec3 color{1};           ///< >= 0 per channel
 };
 
+/// Where the renderer's tile lookup reads the packed texels: a storage buffer (gathers), or a
+/// sampled image read with texelFetch (what engines and the paper use; the texture cache
+/// serves it).
+enum class TexelPath { Buffer, Image };
+
+inline const char* toString(TexelPath p) { return p == TexelPath::Buffer ? "buffer" : "image"; }
+
 /// The effects of a draw; each one that is off is left out of the pipelines.
 struct SurfaceEffects {
     Technique technique = Technique::Displaced;
@@ -81,6 +88,10 @@ struct SurfaceEffects {
     double maxFactor = 64; ///< clamp of the factors, [1, 64]
     Spacing spacing = Spacing::FractionalEven;
     bool wireframe = false;
+    /// The tiles' texels on the GPU: float, or half floats (half the memory; D rounded to ~3
+    /// digits, and the CPU mirror is PackedTiles::useHalf), from a buffer or an image.
+    TexelFormat texelFormat = TexelFormat::Float;
+    TexelPath texelPath = TexelPath::Buffer;
 };
 
 /// Everything about one draw of a surface except the surface: the image, camera, lighting and
