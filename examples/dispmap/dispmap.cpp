@@ -176,6 +176,12 @@ struct LoadedSurface {
 // Writes the tiles back into the UV layout (tilesToMap): one image, or one per UDIM tile of
 // the height map when `path` holds a UDIM token; the format by the extension (.exr float,
 // .tif 32-bit float, .png 16-bit: heights in [0, 1]); size: `size`, or the height map's.
+// Whether `path` ends in `ext` (and has a name before it).
+bool endsWith(const std::string& path, std::string_view ext) {
+    return path.size() > ext.size() && path.compare(path.size() - ext.size(), ext.size(), ext) == 0;
+}
+
+// tiles() checked the extension and that `path` is a UDIM pattern exactly when --height is.
 void writeMaps(const ControlMesh& mesh, const TileSet& ts, const SourceArgs& a, const std::string& path, int size) {
     const std::optional<UvInterpolation> rule = parseUvInterpolation(a.uv);
     if (!rule) throw ArgumentError("--uv: unknown rule '" + a.uv + "' (" + uvInterpolationNames() + ")");
@@ -186,10 +192,7 @@ void writeMaps(const ControlMesh& mesh, const TileSet& ts, const SourceArgs& a, 
         ro.channel = a.channel;
         maps = readHeightMaps(a.height, ro);
     }
-    const bool udim = isUdimPattern(path);
-    if (udim != maps.udim)
-        throw ArgumentError(std::string("--write-map: ") + (udim ? "a UDIM pattern needs a UDIM --height set"
-                                                                 : "the --height set is UDIM: give a pattern with <UDIM>"));
+    const bool udim = maps.udim;
     std::vector<int> tilesToWrite;
     if (udim)
         for (const auto& [n, img] : maps.images) tilesToWrite.push_back(n);
@@ -201,18 +204,12 @@ void writeMaps(const ControlMesh& mesh, const TileSet& ts, const SourceArgs& a, 
         const int h = size > 0 ? size : it != maps.images.end() ? it->second->height : 1024;
         const HeightImage img = tilesToMap(uvs, ts, tile, w, h, a.scale, a.offset, a.midLevel, nullptr, a.wrap && !udim);
         const std::string file = udim ? udimPath(path, tile) : path;
-        const auto ends = [&](const char* ext) {
-            const std::string e(ext);
-            return file.size() > e.size() && file.compare(file.size() - e.size(), e.size(), e) == 0;
-        };
-        if (ends(".exr"))
+        if (endsWith(file, ".exr"))
             writeHeightExr(file, img);
-        else if (ends(".tif") || ends(".tiff"))
+        else if (endsWith(file, ".tif") || endsWith(file, ".tiff"))
             writeHeightTiff(file, img, 32, true);
-        else if (ends(".png"))
-            writeHeightPng16(file, img);
         else
-            throw ArgumentError("--write-map: '" + file + "' must end in .exr, .tif or .png");
+            writeHeightPng16(file, img);
         std::cout << "  wrote " << file << " (" << w << " x " << h << ")\n";
     }
 }
@@ -227,11 +224,8 @@ int tiles(const SourceArgs& a, const std::string& output, const std::string& map
     if (a.mesh.empty()) throw ArgumentError("tiles: give --mesh (with --height or --function) or --load");
     if (!output.empty()) detail::checkOutputPath(output, "tile file");
     if (!mapOutput.empty()) {
-        const auto ends = [&](const char* ext) {
-            const std::string e(ext);
-            return mapOutput.size() > e.size() && mapOutput.compare(mapOutput.size() - e.size(), e.size(), e) == 0;
-        };
-        if (!ends(".exr") && !ends(".tif") && !ends(".tiff") && !ends(".png"))
+        if (!endsWith(mapOutput, ".exr") && !endsWith(mapOutput, ".tif") && !endsWith(mapOutput, ".tiff") &&
+            !endsWith(mapOutput, ".png"))
             throw ArgumentError("--write-map: '" + mapOutput + "' must end in .exr, .tif or .png");
         if (isUdimPattern(mapOutput) != (!a.height.empty() && isUdimPattern(a.height)))
             throw ArgumentError(std::string("--write-map: ") + (isUdimPattern(mapOutput) ? "a UDIM pattern needs a UDIM --height set"
@@ -356,10 +350,8 @@ struct TessellateArgs {
 
 int tessellateCommand(const TessellateArgs& a) {
     if (a.output.empty()) throw ArgumentError("tessellate: give -o out.obj, out.ply, out.glb or out.gltf");
-    const auto endsWith = [&](std::string_view ext) {
-        return a.output.size() > ext.size() && a.output.compare(a.output.size() - ext.size(), ext.size(), ext) == 0;
-    };
-    const bool ply = endsWith(".ply"), obj = endsWith(".obj"), gltf = endsWith(".glb") || endsWith(".gltf");
+    const bool ply = endsWith(a.output, ".ply"), obj = endsWith(a.output, ".obj"),
+               gltf = endsWith(a.output, ".glb") || endsWith(a.output, ".gltf");
     if (!ply && !obj && !gltf) throw ArgumentError("tessellate: -o must name a .obj, a .ply, a .glb or a .gltf file");
     detail::checkOutputPath(a.output, "mesh file");
     const LoadedSurface loaded(a.source, a.surface, "tessellate");
