@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <random>
 #include <set>
 #include <string>
@@ -17,6 +18,7 @@
 #include <png.h>
 
 #include "dispmap/surface/baseline.h"
+#include "dispmap/surface/map_source.h"
 #include "dispmap/surface/builtin.h"
 #include "dispmap/io/png.h"
 
@@ -330,6 +332,164 @@ TEST_CASE("RGBA PNG: round trip, converted inputs, bad files", "[baseline][png]"
     CHECK_THROWS_AS(writeRgbaPng(dir.file("z.png"), 7, 5, nullptr), ArgumentError);
     CHECK_THROWS_AS(writeRgbaPng(dir.file("no/such/dir/z.png"), 7, 5, px.data()), FileError);
     CHECK(!std::filesystem::exists(dir.file("z.png")));
+}
+
+} // namespace dmtest_baseline
+
+namespace dmtest_baseline {
+namespace {
+
+// Spot with the brick map on its UVs (smooth), 2^4 tiles: a real UV layout with seams.
+struct SpotBricks {
+    ControlMesh mesh = dmtest::shape("spot_control_mesh");
+    std::shared_ptr<const UvMap> smooth = std::make_shared<const UvMap>(mesh, UvInterpolation::Smooth);
+    UvMap linear{mesh, UvInterpolation::Linear};
+    TileSet tiles = build();
+    BaseSurface base{mesh};
+    DisplacedSurface surface{base, tiles};
+
+    TileSet build() const {
+        HeightMaps brick;
+        brick.images[0] = std::make_shared<const HeightImage>(readHeightPng(dmtest::dataPath("skimage_brick.png")));
+        MapSourceOptions o;
+        o.allowOverlap = true;
+        o.filter = MapFilter::Box;
+        o.scale = 0.02;
+        const std::vector<int> k = uniformTileSizes(mesh, 4);
+        return buildTiles(mesh, k, mapSource(smooth, brick, k, o));
+    }
+};
+
+} // namespace
+
+TEST_CASE("baseline on the mesh's UVs: texel centres hold the surface, UV seams crack, chart interiors do not", "[baseline]") {
+    const SpotBricks spot;
+    const int size = 256;
+    const BaselineAtlas a = bakeBaselineUv(spot.surface, spot.linear, size, size);
+    REQUIRE(a.layout == BaselineLayout::MeshUv);
+    REQUIRE(a.faceCount() == spot.base.faceCount());
+
+    // Texel centres strictly inside a face (rasterised again) that no other face (nor a
+    // repeated copy) covers: the lookup reads that texel alone (the texture coordinate is the
+    // centre), so it returns the surface's D in float, and the normal map decodes in
+    // the same frame the bake encoded in: within the 8-bit quantisation angle.
+    std::vector<int> tiles(static_cast<std::size_t>(spot.base.faceCount()), 0);
+    std::vector<int> writes(static_cast<std::size_t>(size * size), 0);
+    for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx)
+            rasterizeUvs(spot.linear, tiles, 0, size, size, 4, 0.0, 0,
+                         [&](int x, int y, int, double, double) { ++writes[static_cast<std::size_t>(y * size + x)]; }, glm::dvec2(dx, dy));
+    double dMax = 0.0, dErr = 0.0, nErr = 0.0;
+    int visits = 0, shared = 0;
+    rasterizeUvs(spot.linear, tiles, 0, size, size, 4, 0.02, 3, [&](int x, int y, int t, double u, double v) {
+        if (writes[static_cast<std::size_t>(y * size + x)] != 1) {
+            ++shared;
+            return;
+        }
+        if (++visits % 7) return;
+        const SurfaceSample<double> s = spot.surface.evaluate<double>(t, u, v, NormalMode::Accurate);
+        const BaseSample<double> b = spot.base.evaluate<double>(t, u, v, false);
+        dMax = std::max(dMax, std::abs(s.displacement.x));
+        dErr = std::max(dErr, std::abs(sampleBaselineHeight(a, t, u, v) - s.displacement.x));
+        nErr = std::max(nErr, angle(sampleBaselineNormal(a, t, u, v, b.du, s.baseNormal), s.normal));
+    });
+    INFO(visits << " texel centres (" << shared << " covered twice), max |D| " << dMax << ", height error " << dErr
+                 << ", normal error " << nErr);
+    REQUIRE(visits > 15000);
+    // The corner UVs are stored as float: the coordinate lands within ~2^-24 * 256 = 1.5e-5 texel
+    // of the centre, which mixes in that much of a neighbour (differing by less than 2 max |D|).
+    CHECK(dErr < 3e-5 * dMax);
+    CHECK(nErr < kQuantAngle + 1e-6);
+
+    // Both sides of every edge: inside a chart they read the same texels at the same texture
+    // coordinate in the same frame; across a UV seam they read different charts.
+    const UvSeamReport uv = measureUvSeams(spot.surface, spot.linear, &a);
+    const UvSeamReport ours = measureUvSeams(spot.surface, spot.linear, nullptr);
+    const BaselineAtlas faces = bakeBaseline(spot.surface, 16);
+    const UvSeamReport perFace = measureUvSeams(spot.surface, spot.linear, &faces);
+    INFO("uv: seams " << uv.seams.points << " points, gap " << uv.seams.maxGap << " (mean " << uv.seams.meanGap << "), jump "
+                      << uv.seams.maxJump << " (mean " << uv.seams.meanJump << "); inside gap " << uv.inside.maxGap << ", jump "
+                      << uv.inside.maxJump << "; ours: seams gap " << ours.seams.maxGap << " jump " << ours.seams.maxJump
+                      << "; faces: seams gap " << perFace.seams.maxGap << " jump " << perFace.seams.maxJump);
+    REQUIRE(uv.seams.points > 500);
+    REQUIRE(uv.inside.points > 5000);
+    CHECK(uv.seams.meanGap > 1e-4);       // cracks: measured 1e-3 of the mesh size on average
+    CHECK(uv.inside.maxGap < 1e-6);       // corner UVs in float: the two faces' texture coordinates differ by rounding
+    CHECK(uv.seams.meanJump > 0.05);      // shading seams: measured ~0.2 rad on average
+    CHECK(uv.inside.maxJump < 1e-3);      // the same corner tangents on both sides: float rounding of the frame
+    CHECK(ours.seams.maxGap < 1e-9);      // dispmap: the tiles share their edges (double evaluation)
+    CHECK(ours.seams.maxJump < 1e-6);
+    CHECK(perFace.seams.maxGap < 1e-6);   // the seam-free atlas: both charts hold the same points
+}
+
+TEST_CASE("baseline on the mesh's UVs: gutters, bad input", "[baseline]") {
+    const SpotBricks spot;
+    // Gutters: a texel no face covers but next to covered ones holds the mean of their heights
+    // after the first round; without a gutter it keeps 0. The measured effect on the seams
+    // is in docs/figures.md (on this map the gutter widens the cracks: its texels continue each
+    // chart's border, where an empty texel pulls D towards 0 = the mid-level).
+    const int size = 128;
+    const BaselineAtlas bare = bakeBaselineUv(spot.surface, spot.linear, size, size, 0);
+    const BaselineAtlas padded = bakeBaselineUv(spot.surface, spot.linear, size, size, 4);
+    std::vector<int> tiles(static_cast<std::size_t>(spot.base.faceCount()), 0);
+    std::vector<char> covered(static_cast<std::size_t>(size * size), 0);
+    for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx)
+            rasterizeUvs(spot.linear, tiles, 0, size, size, 4, 0.0, 0,
+                         [&](int x, int y, int, double, double) { covered[static_cast<std::size_t>(y * size + x)] = 1; }, glm::dvec2(dx, dy));
+    int ring = 0, far = 0;
+    for (int y = 0; y < size; ++y)
+        for (int x = 0; x < size; ++x) {
+            const std::size_t at = static_cast<std::size_t>(y * size + x);
+            if (covered[at]) {
+                CHECK(bare.heights[at] == padded.heights[at]);
+                continue;
+            }
+            CHECK(bare.heights[at] == 0.0f);
+            double sum = 0.0;
+            int count = 0;
+            for (int j = -1; j <= 1; ++j)
+                for (int i = -1; i <= 1; ++i) {
+                    const std::size_t o = static_cast<std::size_t>(((y + j + size) % size) * size + (x + i + size) % size);
+                    if (covered[o]) {
+                        sum += static_cast<double>(padded.heights[o]);
+                        ++count;
+                    }
+                }
+            if (count > 0) {
+                ++ring;
+                CHECK(std::abs(static_cast<double>(padded.heights[at]) - sum / count) < 1e-7);
+            } else {
+                ++far;
+            }
+        }
+    INFO(ring << " texels next to the charts, " << far << " farther");
+    CHECK(ring > 100);
+    CHECK(far > 100);
+
+    CHECK_THROWS_WITH(bakeBaselineUv(spot.surface, *spot.smooth, 64, 64), Catch::Contains("linearly"));
+    CHECK_THROWS_WITH(bakeBaselineUv(spot.surface, spot.linear, 0, 64), Catch::Contains("out of range"));
+    CHECK_THROWS_WITH(bakeBaselineUv(spot.surface, spot.linear, 64, 16385), Catch::Contains("out of range"));
+    CHECK_THROWS_WITH(bakeBaselineUv(spot.surface, spot.linear, 64, 64, -1), Catch::Contains("gutter"));
+    CHECK_THROWS_WITH(bakeBaselineUv(spot.surface, spot.linear, 64, 64, 65), Catch::Contains("gutter"));
+    const Baked box;
+    CHECK_THROWS_WITH(bakeBaselineUv(box.surface, spot.linear, 64, 64), Catch::Contains("ptex faces"));
+    // UVs in a far UDIM tile: one repeating tile only.
+    MeshDescription d = parseObj(dmtest::gridObj(3, 3), "shifted grid");
+    for (glm::dvec2& t : d.uvs) t.x += 2.5;
+    const ControlMesh shifted(d);
+    const TileSet flat = buildTiles(shifted, uniformTileSizes(shifted, 2), [](int, double, double) { return 0.0; });
+    const BaseSurface shiftedBase(shifted);
+    const DisplacedSurface shiftedSurface(shiftedBase, flat);
+    CHECK_THROWS_WITH(bakeBaselineUv(shiftedSurface, UvMap(shifted, UvInterpolation::Linear), 64, 64),
+                      Catch::Contains("outside [-1, 2]^2") && Catch::Contains("ptex face 0"));
+    const BaselineAtlas a = bakeBaselineUv(spot.surface, spot.linear, 32, 32);
+    CHECK_THROWS_AS(sampleBaselineNormal(a, -1, 0.5, 0.5, glm::dvec3(1, 0, 0), glm::dvec3(0, 0, 1)), ArgumentError);
+    CHECK_THROWS_AS(sampleBaselineHeight(a, a.faceCount(), 0.5, 0.5), ArgumentError);
+    CHECK_THROWS_AS(sampleBaselineHeight(a, 0, 0.5, -0.1), ArgumentError);
+    CHECK(parseBaselineLayout("uv") == BaselineLayout::MeshUv);
+    CHECK(parseBaselineLayout("faces") == BaselineLayout::Faces);
+    CHECK_FALSE(parseBaselineLayout("atlas"));
 }
 
 } // namespace dmtest_baseline

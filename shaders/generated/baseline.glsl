@@ -11,7 +11,7 @@
 #define rvec3 vec3
 #define rvec4 vec4
 #define rmat3 mat3
-#line 21 "include/dispmap/kernels/baseline.h"
+#line 22 "include/dispmap/kernels/baseline.h"
 // T: su with its component along the unit normal N removed (twice: the second pass removes
 // what cancellation left when su is nearly parallel to N), normalised. Where less than 1e-6
 // of |su| is left (su zero or parallel to N), a unit vector perpendicular to N built from the
@@ -50,6 +50,49 @@ DM_TFUNC rvec3 dmUnpackUnormNormal(rvec3 c) {
 // texel is at `origin` (texels) in an atlas of `size` texels (see the top of this file).
 DM_TFUNC rvec2 dmBaselineAtlasUV(rvec2 origin, rvec2 faceUV, real n, rvec2 size) {
     return (origin + rvec2(real(0.5)) + faceUV * n) / size;
+}
+
+// The mesh's UV at face (u, v) = faceUV as an engine interpolates it over a patch: bilinear
+// between the face's corner UVs c01 = (c0, c1), c23 = (c2, c3) at (u, v) = (0, 0), (1, 0),
+// (1, 1), (0, 1); du, dv its derivatives along u and v.
+DM_TFUNC rvec2 dmFaceUv(rvec4 c01, rvec4 c23, rvec2 faceUV, DM_OUT(rvec2) du, DM_OUT(rvec2) dv) {
+    rvec2 c0 = rvec2(c01.x, c01.y);
+    rvec2 c1 = rvec2(c01.z, c01.w);
+    rvec2 c2 = rvec2(c23.x, c23.y);
+    rvec2 c3 = rvec2(c23.z, c23.w);
+    real u = faceUV.x;
+    real v = faceUV.y;
+    du = (c1 - c0) * (real(1) - v) + (c2 - c3) * v;
+    dv = (c3 - c0) * (real(1) - u) + (c2 - c1) * u;
+    return (c0 * (real(1) - u) + c1 * u) * (real(1) - v) + (c3 * (real(1) - u) + c2 * u) * v;
+}
+
+// Texture coordinate of UV (s, t) in an image whose row 0 is t = 1 (image files' top row;
+// Vulkan's texture coordinate y = 0).
+DM_TFUNC rvec2 dmUvTexcoord(rvec2 st) {
+    return rvec2(st.x, real(1) - st.y);
+}
+
+// The conventional tangent of a UV layout: the direction of increasing s on the surface,
+// dP/ds = (P_u t_v - P_v t_u) / det (su = P_u, sv = P_v; uvDu = (s_u, t_u), uvDv = (s_v, t_v);
+// det = s_u t_v - s_v t_u the UV map's Jacobian), made perpendicular to N and normalised
+// by dmTangentFromDerivative (which also covers a degenerate UV map). Only the sign of det
+// matters for the direction, so it is not divided by.
+DM_TFUNC rvec3 dmUvTangent(rvec3 su, rvec3 sv, rvec2 uvDu, rvec2 uvDv, rvec3 N) {
+    real det = uvDu.x * uvDv.y - uvDv.x * uvDu.y;
+    rvec3 ps = su * uvDv.y - sv * uvDu.y;
+    return dmTangentFromDerivative(det < real(0) ? -ps : ps, N);
+}
+
+// The tangent of a face of the mesh-UV layout at face (u, v) = faceUV: its four corner
+// tangents t0..t3 (per-vertex tangents at (0, 0), (1, 0), (1, 1), (0, 1)) interpolated
+// bilinearly, as a shader interpolates a vertex attribute, then made perpendicular to N and
+// normalised (dmTangentFromDerivative).
+DM_TFUNC rvec3 dmFaceTangent(rvec3 t0, rvec3 t1, rvec3 t2, rvec3 t3, rvec2 faceUV, rvec3 N) {
+    real u = faceUV.x;
+    real v = faceUV.y;
+    rvec3 t = (t0 * (real(1) - u) + t1 * u) * (real(1) - v) + (t3 * (real(1) - u) + t2 * u) * v;
+    return dmTangentFromDerivative(t, N);
 }
 #undef real
 #undef rvec2
@@ -62,7 +105,7 @@ DM_TFUNC rvec2 dmBaselineAtlasUV(rvec2 origin, rvec2 faceUV, real n, rvec2 size)
 #define rvec3 dvec3
 #define rvec4 dvec4
 #define rmat3 dmat3
-#line 21 "include/dispmap/kernels/baseline.h"
+#line 22 "include/dispmap/kernels/baseline.h"
 // T: su with its component along the unit normal N removed (twice: the second pass removes
 // what cancellation left when su is nearly parallel to N), normalised. Where less than 1e-6
 // of |su| is left (su zero or parallel to N), a unit vector perpendicular to N built from the
@@ -78,14 +121,14 @@ DM_TFUNC rvec3 dmTangentFromDerivative(rvec3 su, rvec3 N) {
     rvec3 p = a - N * dmDot3(N, a);
     return p * (real(1) / sqrt(dmDot3(p, p)));
 }
-#line 36 "include/dispmap/kernels/baseline.h"
+#line 37 "include/dispmap/kernels/baseline.h"
 
 // n in the frame (T, B = N x T, N): (n . T, n . B, n . N).
 DM_TFUNC rvec3 dmTangentSpaceEncode(rvec3 n, rvec3 T, rvec3 N) {
     rvec3 B = cross(N, T);
     return rvec3(dmDot3(n, T), dmDot3(n, B), dmDot3(n, N));
 }
-#line 42 "include/dispmap/kernels/baseline.h"
+#line 43 "include/dispmap/kernels/baseline.h"
 
 // The world normal of a tangent-space normal: normalize(nts.x T + nts.y B + nts.z N), N where
 // nts is zero.
@@ -93,18 +136,65 @@ DM_TFUNC rvec3 dmTangentSpaceDecode(rvec3 nts, rvec3 T, rvec3 N) {
     rvec3 B = cross(N, T);
     return dmSafeNormalize((T * nts.x + B * nts.y) + N * nts.z, N);
 }
-#line 49 "include/dispmap/kernels/baseline.h"
+#line 50 "include/dispmap/kernels/baseline.h"
 
 // A normal-map texel read through an 8-bit UNORM view (c in [0, 1]^3) back to [-1, 1]^3.
 DM_TFUNC rvec3 dmUnpackUnormNormal(rvec3 c) {
     return c * real(2) - rvec3(real(1));
 }
-#line 54 "include/dispmap/kernels/baseline.h"
+#line 55 "include/dispmap/kernels/baseline.h"
 
 // Texture coordinate of face (u, v) = faceUV in a chart of n x n texel intervals whose first
 // texel is at `origin` (texels) in an atlas of `size` texels (see the top of this file).
 DM_TFUNC rvec2 dmBaselineAtlasUV(rvec2 origin, rvec2 faceUV, real n, rvec2 size) {
     return (origin + rvec2(real(0.5)) + faceUV * n) / size;
+}
+#line 61 "include/dispmap/kernels/baseline.h"
+
+// The mesh's UV at face (u, v) = faceUV as an engine interpolates it over a patch: bilinear
+// between the face's corner UVs c01 = (c0, c1), c23 = (c2, c3) at (u, v) = (0, 0), (1, 0),
+// (1, 1), (0, 1); du, dv its derivatives along u and v.
+DM_TFUNC rvec2 dmFaceUv(rvec4 c01, rvec4 c23, rvec2 faceUV, DM_OUT(rvec2) du, DM_OUT(rvec2) dv) {
+    rvec2 c0 = rvec2(c01.x, c01.y);
+    rvec2 c1 = rvec2(c01.z, c01.w);
+    rvec2 c2 = rvec2(c23.x, c23.y);
+    rvec2 c3 = rvec2(c23.z, c23.w);
+    real u = faceUV.x;
+    real v = faceUV.y;
+    du = (c1 - c0) * (real(1) - v) + (c2 - c3) * v;
+    dv = (c3 - c0) * (real(1) - u) + (c2 - c1) * u;
+    return (c0 * (real(1) - u) + c1 * u) * (real(1) - v) + (c3 * (real(1) - u) + c2 * u) * v;
+}
+#line 76 "include/dispmap/kernels/baseline.h"
+
+// Texture coordinate of UV (s, t) in an image whose row 0 is t = 1 (image files' top row;
+// Vulkan's texture coordinate y = 0).
+DM_TFUNC rvec2 dmUvTexcoord(rvec2 st) {
+    return rvec2(st.x, real(1) - st.y);
+}
+#line 82 "include/dispmap/kernels/baseline.h"
+
+// The conventional tangent of a UV layout: the direction of increasing s on the surface,
+// dP/ds = (P_u t_v - P_v t_u) / det (su = P_u, sv = P_v; uvDu = (s_u, t_u), uvDv = (s_v, t_v);
+// det = s_u t_v - s_v t_u the UV map's Jacobian), made perpendicular to N and normalised
+// by dmTangentFromDerivative (which also covers a degenerate UV map). Only the sign of det
+// matters for the direction, so it is not divided by.
+DM_TFUNC rvec3 dmUvTangent(rvec3 su, rvec3 sv, rvec2 uvDu, rvec2 uvDv, rvec3 N) {
+    real det = uvDu.x * uvDv.y - uvDv.x * uvDu.y;
+    rvec3 ps = su * uvDv.y - sv * uvDu.y;
+    return dmTangentFromDerivative(det < real(0) ? -ps : ps, N);
+}
+#line 93 "include/dispmap/kernels/baseline.h"
+
+// The tangent of a face of the mesh-UV layout at face (u, v) = faceUV: its four corner
+// tangents t0..t3 (per-vertex tangents at (0, 0), (1, 0), (1, 1), (0, 1)) interpolated
+// bilinearly, as a shader interpolates a vertex attribute, then made perpendicular to N and
+// normalised (dmTangentFromDerivative).
+DM_TFUNC rvec3 dmFaceTangent(rvec3 t0, rvec3 t1, rvec3 t2, rvec3 t3, rvec2 faceUV, rvec3 N) {
+    real u = faceUV.x;
+    real v = faceUV.y;
+    rvec3 t = (t0 * (real(1) - u) + t1 * u) * (real(1) - v) + (t3 * (real(1) - u) + t2 * u) * v;
+    return dmTangentFromDerivative(t, N);
 }
 #undef real
 #undef rvec2

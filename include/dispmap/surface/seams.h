@@ -57,6 +57,16 @@ namespace detail {
 inline double angleBetween(const glm::dvec3& a, const glm::dvec3& b) {
     return std::atan2(glm::length(glm::cross(a, b)), glm::dot(a, b));
 }
+/// The bounding-box diagonal of the control points (at least the smallest normal double): the
+/// scale seam gaps are measured in.
+inline double controlDiagonal(const BaseSurface& base) {
+    glm::dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+    for (int v = 0; v < base.controlPointCount(); ++v) {
+        lo = glm::min(lo, base.points()[static_cast<std::size_t>(v)]);
+        hi = glm::max(hi, base.points()[static_cast<std::size_t>(v)]);
+    }
+    return std::max(glm::length(hi - lo), std::numeric_limits<double>::min());
+}
 } // namespace detail
 
 /// Both sides of every edge between two faces that are not holes, evaluated in `real`
@@ -66,14 +76,7 @@ template <typename real> SeamReport measureSeams(const DisplacedSurface& surface
     const BaseSurface& base = surface.base();
     const TileTopology& topo = base.topology();
     SeamReport report;
-    {
-        glm::dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
-        for (int v = 0; v < base.controlPointCount(); ++v) {
-            lo = glm::min(lo, base.points()[static_cast<std::size_t>(v)]);
-            hi = glm::max(hi, base.points()[static_cast<std::size_t>(v)]);
-        }
-        report.size = std::max(glm::length(hi - lo), std::numeric_limits<double>::min());
-    }
+    report.size = detail::controlDiagonal(base);
     std::mt19937 rng(options.seed);
     std::uniform_real_distribution<double> uniform(0.0, 1.0);
     const double ring = std::ldexp(1.0, -base.options().isolationLevel);

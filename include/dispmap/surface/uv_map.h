@@ -80,6 +80,15 @@ class UvMap {
     UvSample evaluate(int ptexFace, double u, double v) const;
     glm::dvec2 operator()(int ptexFace, double u, double v) const { return evaluate(ptexFace, u, v).uv; }
 
+    /// The corner UVs of a ptex face at (u, v) = (0, 0), (1, 0), (1, 1), (0, 1) that the linear
+    /// rule interpolates bilinearly (a sub-face of a non-quad: its corner, edge midpoints and
+    /// centroid). Throws ArgumentError for a face out of range.
+    const std::array<glm::dvec2, 4>& linearCorners(int ptexFace) const {
+        if (ptexFace < 0 || ptexFace >= ptexFaceCount())
+            throw ArgumentError(name_ + ": ptex face " + std::to_string(ptexFace) + " out of range [0, " +
+                                std::to_string(ptexFaceCount()) + ")");
+        return corners_[static_cast<std::size_t>(ptexFace)];
+    }
     /// Whether the UVs are subdivided (a smooth rule), not interpolated linearly.
     bool smooth() const { return smooth_; }
     /// The Sdc rule in use (FVAR_LINEAR_ALL for Linear).
