@@ -63,6 +63,7 @@ void checkSame(const Scene& a, const Scene& b) {
     CHECK(da.uv == db.uv);
     CHECK(da.mapFilter == db.mapFilter);
     CHECK(da.sizes == db.sizes);
+    CHECK(da.sizeTolerance == db.sizeTolerance);
     CHECK(da.allowOverlap == db.allowOverlap);
     CHECK(da.filter == db.filter);
     CHECK(da.sharpBand == db.sharpBand);
@@ -83,6 +84,7 @@ void checkSame(const Scene& a, const Scene& b) {
     CHECK(a.width == b.width);
     CHECK(a.height == b.height);
     CHECK(a.baselineTexels == b.baselineTexels);
+    CHECK(a.baselineLayout == b.baselineLayout);
     const SurfaceEffects &ea = a.effects, &eb = b.effects;
     CHECK(ea.technique == eb.technique);
     CHECK(ea.normals == eb.normals);
@@ -105,7 +107,7 @@ const char* kFullScene = R"({
   "camera": {"eye": [1, 2, 3], "target": [0.5, 0, -1], "up": [0, 0, 1], "fovY": 55.5, "near": 0.1, "far": 20},
   "lights": [{"direction": [0, 3, 4], "color": [0.5, 0.25, 2]}, {"direction": [-1, 0, 0]}, {}],
   "ambient": 0.3, "albedo": [0.1, 0.2, 0.3], "background": [1, 0.5, 0],
-  "resolution": [64, 4096], "baselineTexels": 17,
+  "resolution": [64, 4096], "baselineTexels": 17, "baselineLayout": "uv",
   "effects": {"technique": "baseline", "normals": "auto", "autoTolerance": 0.5, "lod": "texelratio",
               "tessellation": {"method": "area", "value": 12.5, "max": 32, "spacing": "integer"}, "wireframe": true,
               "texelFormat": "half", "texelPath": "image"}
@@ -208,6 +210,7 @@ TEST_CASE("scene: every key parsed, and toJson round-trips", "[scene]") {
     CHECK(s.width == 64);
     CHECK(s.height == 4096);
     CHECK(s.baselineTexels == 17);
+    CHECK(s.baselineLayout == BaselineLayout::MeshUv);
     CHECK(s.effects.technique == Technique::Baseline);
     CHECK(s.effects.normals == NormalMode::Auto);
     CHECK(s.effects.autoToleranceDeg == 0.5);
@@ -224,15 +227,17 @@ TEST_CASE("scene: every key parsed, and toJson round-trips", "[scene]") {
     CHECK(s.effects.texelFormat == TexelFormat::Half);
     CHECK(s.effects.texelPath == TexelPath::Image);
 
-    // The map keys, none at its default (sizes "texels" cannot go with mixedSizes).
+    // The map keys, none at its default (sizes other than "uniform" cannot go with mixedSizes).
     const Scene maps = parseScene(R"({"displacement": {"height": "h.<UDIM>.exr", "midLevel": 0.5, "channel": "G", "uv": "corners+1",
-                                                       "mapFilter": "tent", "sizes": "texels", "allowOverlap": true}})",
+                                                       "mapFilter": "tent", "sizes": "error", "sizeTolerance": 0.125,
+                                                       "allowOverlap": true}})",
                                   "maps.json", "");
     CHECK(maps.displacement.midLevel == 0.5);
     CHECK(maps.displacement.channel == "G");
     CHECK(maps.displacement.uv == "corners+1");
     CHECK(maps.displacement.mapFilter == "tent");
-    CHECK(maps.displacement.sizes == "texels");
+    CHECK(maps.displacement.sizes == "error");
+    CHECK(maps.displacement.sizeTolerance == 0.125);
     CHECK(maps.displacement.allowOverlap);
     for (const Scene& x : {s, maps, defaultScene(), parseScene("{}", "empty", "")}) {
         const std::string text = toJson(x);
@@ -276,6 +281,9 @@ TEST_CASE("scene: rejected inputs name the scene and the key", "[scene][errors]"
         {R"({"displacement": {"uv": "smoothest"}})", "displacement.uv: unknown value 'smoothest'"},
         {R"({"displacement": {"mapFilter": "gauss"}})", "displacement.mapFilter: unknown value 'gauss' (point, box, tent)"},
         {R"({"displacement": {"sizes": "texels", "mixedSizes": true}})", "give mixedSizes or sizes \"texels\", not both"},
+        {R"({"displacement": {"sizes": "error", "mixedSizes": true}})", "give mixedSizes or sizes \"error\", not both"},
+        {R"({"displacement": {"sizeTolerance": 0}})", "displacement.sizeTolerance: 0 is not in (0, 1]"},
+        {R"({"displacement": {"sizeTolerance": 1.5}})", "displacement.sizeTolerance: 1.5 is not in (0, 1]"},
         {R"({"displacement": {"midLevel": 1e7}})", "displacement.midLevel: "},
         {R"({"displacement": {"sharpBand": 0.6}})", "displacement.sharpBand: 0.6 is not in [0, 0.5]"},
         {R"({"displacement": {"sharpBand": -0.1}})", "displacement.sharpBand: -0.1 is not in [0, 0.5]"},
@@ -308,6 +316,7 @@ TEST_CASE("scene: rejected inputs name the scene and the key", "[scene][errors]"
         {R"({"resolution": 320})", "resolution: expected [width, height]"},
         {R"({"baselineTexels": -1})", "baselineTexels: -1 is out of range [0, 1024]"},
         {R"({"baselineTexels": 1025})", "baselineTexels: 1025 is out of range [0, 1024]"},
+        {R"({"baselineLayout": "atlas"})", "baselineLayout: unknown value 'atlas' (faces, uv)"},
         {R"({"effects": {"shadows": true}})",
          "scene 'bad.json': effects: unknown effect 'shadows' (known: technique, normals, autoTolerance, lod, "
          "tessellation, wireframe, texelFormat, texelPath)"},

@@ -67,8 +67,8 @@ constexpr std::uint32_t kCaptureHeader = 16;
 
 enum Binding : std::uint32_t {
     kParams, kPoints, kPatchIndices, kPatches, kNodes, kFaceRoots, kCornerNormals, kTexels, kRecords,
-    kFaces, kBaseVertices, kRingIndices, kTileVertices, kSpreadIndices, kDrawFaces, kCapture,
-    kStorageBindings, // = 16
+    kFaces, kBaseVertices, kRingIndices, kTileVertices, kSpreadIndices, kDrawFaces, kCapture, kBaselineFaces,
+    kStorageBindings, // = 17
     kBaselineHeight = kStorageBindings, kBaselineNormal, kPackedImage, kBindingCount
 };
 
@@ -146,7 +146,8 @@ Topology buildTopology(const DisplacedSurface& surface, const BaselineAtlas* atl
         const bool autoAccurate = surface.autoFaces()[static_cast<std::size_t>(f)] != 0;
         const int sharp = surface.sharpBand() > 0.0 ? base.sharpMask(f) : 0;
         g.info = glm::ivec4(topo.scale(f), autoAccurate ? 1 : 0, tBits, sharp);
-        g.chart = atlas ? glm::uvec4(atlas->chartOrigins[static_cast<std::size_t>(f)], 0, 0) : glm::uvec4(0);
+        g.chart = atlas && atlas->layout == BaselineLayout::Faces ? glm::uvec4(atlas->chartOrigins[static_cast<std::size_t>(f)], 0, 0)
+                                                                  : glm::uvec4(0);
         if (!base.isHole(f)) t.drawFaces.push_back(static_cast<std::uint32_t>(f));
     }
     return t;
@@ -201,6 +202,7 @@ struct SurfaceRenderer::Impl {
     std::uint32_t drawCount = 0;
     std::size_t uploaded = 0;
     int packedWidth = 0, atlasW = 1, atlasH = 1, atlasN = 1;
+    bool baselineUv = false; // the baseline atlas is in the mesh's UV layout
 
     std::vector<Buffer> buffers;             // by binding, kParams .. kCapture
     std::vector<GpuBaseVertex> baseVertices; // what kBaseVertices holds (positions move with the cage)
@@ -288,6 +290,19 @@ struct SurfaceRenderer::Impl {
             atlasW = atlas->width;
             atlasH = atlas->height;
             atlasN = atlas->texelsPerFace;
+            baselineUv = atlas->layout == BaselineLayout::MeshUv;
+            if (atlas->faceCount() != surface.base().faceCount())
+                throw ArgumentError("the baseline atlas has " + std::to_string(atlas->faceCount()) + " faces, the surface " +
+                                    std::to_string(surface.base().faceCount()));
+            if (baselineUv) { // 6 vec4 a face: corner UVs, then corner tangents (BaselineFaces of common.glsl)
+                std::vector<glm::vec4> data;
+                data.reserve(6 * static_cast<std::size_t>(atlas->faceCount()));
+                for (int f = 0; f < atlas->faceCount(); ++f) {
+                    for (int i = 0; i < 2; ++i) data.push_back(atlas->faceUvs[2 * static_cast<std::size_t>(f) + static_cast<std::size_t>(i)]);
+                    for (int i = 0; i < 4; ++i) data.push_back(atlas->cornerTangents[4 * static_cast<std::size_t>(f) + static_cast<std::size_t>(i)]);
+                }
+                upload(kBaselineFaces, data);
+            }
         }
         const PackedSurface ps(surface.base());
         upload(kPoints, ps.points);
@@ -367,7 +382,9 @@ struct SurfaceRenderer::Impl {
         s.magFilter = VK_FILTER_LINEAR;
         s.minFilter = VK_FILTER_LINEAR;
         s.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
-        s.addressModeU = s.addressModeV = s.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+        // Repeat, as engines sample a UV layout (the mesh-UV baseline's UVs may leave [0, 1]^2);
+        // the per-face charts are never read outside.
+        s.addressModeU = s.addressModeV = s.addressModeW = VK_SAMPLER_ADDRESS_MODE_REPEAT;
         s.maxLod = 0.0f;
         DISPMAP_VK_CHECK(fn, vkCreateSampler, ctx.device(), &s, nullptr, &sampler);
     }
@@ -439,7 +456,8 @@ struct SurfaceRenderer::Impl {
                            options.captureCapacity > 0 ? 1u : 0u,
                            wireframe ? 1u : 0u,
                            displaced && e.texelFormat == TexelFormat::Half ? 1u : 0u,
-                           displaced && e.texelPath == TexelPath::Image ? 1u : 0u};
+                           displaced && e.texelPath == TexelPath::Image ? 1u : 0u,
+                           e.technique == Technique::Baseline && baselineUv ? 1u : 0u};
         const std::span<const std::uint32_t> frag =
             normalTarget ? (lean ? spirv(render_frag_lean_spv) : spirv(render_frag_spv))
                          : (lean ? spirv(render_frag_color_lean_spv) : spirv(render_frag_color_spv));
@@ -667,6 +685,11 @@ SurfaceRenderer::SurfaceRenderer(Context& context, const SurfaceDraw& draw, cons
     if (!(e.maxFactor >= 1.0 && e.maxFactor <= double(context.properties().limits.maxTessellationGenerationLevel)))
         throw ArgumentError("maximum tessellation factor " + std::to_string(e.maxFactor) + " out of the device's range [1, " +
                             std::to_string(context.properties().limits.maxTessellationGenerationLevel) + "]");
+    const VkPhysicalDeviceLimits& limits = context.properties().limits;
+    if (limits.maxPerStageDescriptorStorageBuffers < kStorageBindings || limits.maxDescriptorSetStorageBuffers < kStorageBindings)
+        throw VulkanError("Vulkan device '" + context.deviceName() + "' allows " +
+                          std::to_string(std::min(limits.maxPerStageDescriptorStorageBuffers, limits.maxDescriptorSetStorageBuffers)) +
+                          " storage buffers per stage; the renderer's shaders bind " + std::to_string(kStorageBindings));
     Impl& m = *impl_;
     m.uploadSurface(e.technique == Technique::Baseline ? atlas : nullptr);
     m.uploadMaps(e.technique == Technique::Baseline ? atlas : nullptr);
@@ -797,6 +820,50 @@ ImageError compareImages(const RenderedImage& test, const RenderedImage& referen
     e.meanNormalDeg = both ? angleSum / double(both) : 0.0;
     e.coverageMismatch = pixels ? double(one) / double(pixels) : 0.0;
     return e;
+}
+
+int enclosedBackground(const RenderedImage& im) {
+    const int w = im.width, h = im.height;
+    std::vector<char> seen(static_cast<std::size_t>(w) * static_cast<std::size_t>(h), 0);
+    std::vector<int> stack;
+    const auto bg = [&](int i) { return im.normals[static_cast<std::size_t>(i)].w < 0.5f; };
+    for (int x = 0; x < w; ++x) {
+        stack.push_back(x);
+        stack.push_back((h - 1) * w + x);
+    }
+    for (int y = 0; y < h; ++y) {
+        stack.push_back(y * w);
+        stack.push_back(y * w + w - 1);
+    }
+    while (!stack.empty()) {
+        const int i = stack.back();
+        stack.pop_back();
+        if (seen[static_cast<std::size_t>(i)] || !bg(i)) continue;
+        seen[static_cast<std::size_t>(i)] = 1;
+        const int x = i % w, y = i / w;
+        if (x > 0) stack.push_back(i - 1);
+        if (x + 1 < w) stack.push_back(i + 1);
+        if (y > 0) stack.push_back(i - w);
+        if (y + 1 < h) stack.push_back(i + w);
+    }
+    int enclosed = 0;
+    for (int i = 0; i < w * h; ++i) enclosed += bg(i) && !seen[static_cast<std::size_t>(i)] ? 1 : 0;
+    return enclosed;
+}
+
+int seeThroughPixels(const RenderedImage& test, const RenderedImage& reference, const Camera& camera, double depthGap) {
+    if (test.width != reference.width || test.height != reference.height || test.depth.size() != reference.depth.size() ||
+        test.depth.size() != test.normals.size())
+        throw ArgumentError("seeThroughPixels: the images differ in size or lack depth");
+    // depth = f / (f - n) (1 - n / z) (draw.h): z = n / (1 - depth (f - n) / f)
+    const double n = camera.nearPlane, f = camera.farPlane;
+    const auto distance = [n, f](float d) { return n / std::max(1.0 - static_cast<double>(d) * (f - n) / f, 1e-300); };
+    int count = 0;
+    for (std::size_t i = 0; i < test.normals.size(); ++i) {
+        if (!(reference.normals[i].w > 0.5f)) continue;
+        if (!(test.normals[i].w > 0.5f) || distance(test.depth[i]) > distance(reference.depth[i]) + depthGap) ++count;
+    }
+    return count;
 }
 
 } // namespace dispmap::vulkan

@@ -23,6 +23,7 @@ layout(constant_id = 4) const bool CAPTURE = false; // TES writes its vertices (
 layout(constant_id = 5) const bool WIRE = false;    // wireframe overlay pass
 layout(constant_id = 6) const bool TEXELS_HALF = false;  // tile texels as half floats (TexelFormat::Half)
 layout(constant_id = 7) const bool TEXELS_IMAGE = false; // tile texels from a sampled image (texelFetch), not a buffer
+layout(constant_id = 8) const bool BASELINE_UV = false;  // the baseline in the mesh's UV layout (BaselineLayout::MeshUv)
 #ifdef DM_LEAN
 #define HAS_ACCURATE false
 #define HAS_LOD false
@@ -46,7 +47,7 @@ layout(std430, set = 0, binding = 0) readonly buffer Params {
     vec4 tess;      // factor value or constant c, max factor, sharp-feature band, 1: end-cap normals (§5.4)
     vec4 albedo;    // rgb, ambient
     vec4 wireColor;
-    vec4 atlas;     // baseline atlas width, height, texels per face edge, 0
+    vec4 atlas;     // baseline atlas width, height, texels per face edge (faces layout), 0
     ivec4 counts;   // light count, capture capacity, packed tile texture width, 0
     Light lights[8]; // kMaxLights (surface/draw.h)
 } P;
@@ -86,9 +87,12 @@ layout(std430, set = 0, binding = 15) buffer Capture {
     uint capturePad2;
     Captured captured[];
 };
-layout(set = 0, binding = 16) uniform sampler2D baselineHeight;
-layout(set = 0, binding = 17) uniform sampler2D baselineNormal;
-layout(set = 0, binding = 18) uniform sampler2D packedImage; // the packed tiles (R32F or R16F) with TEXELS_IMAGE
+// The baseline in the mesh's UV layout, 6 per face: corner UVs (c0, c1), (c2, c3), then the
+// per-vertex tangents at the four corners (xyz).
+layout(std430, set = 0, binding = 16) readonly buffer BaselineFaces { vec4 baselineFaces[]; };
+layout(set = 0, binding = 17) uniform sampler2D baselineHeight;
+layout(set = 0, binding = 18) uniform sampler2D baselineNormal;
+layout(set = 0, binding = 19) uniform sampler2D packedImage; // the packed tiles (R32F or R16F) with TEXELS_IMAGE
 
 int packedWidth() {
     return P.counts.z;
@@ -209,7 +213,22 @@ vec3 endCapNormal(int face, vec2 uv, float rho, bool accurate, vec3 n) {
     return dmEndCapNormal(nc[0], nc[1], nc[2], nc[3], dmPatchLocal(patchRec.zw, uv), n, evCorner);
 }
 
-// The baseline atlas coordinate of face (u, v) (include/dispmap/surface/baseline.h).
+// The baseline's texture coordinate of face (u, v): in the face's chart, or at its mesh UV
+// (baselineTexcoord of include/dispmap/surface/baseline.h).
 vec2 baselineUV(int face, vec2 uv) {
+    if (BASELINE_UV) {
+        vec2 du;
+        vec2 dv;
+        return dmUvTexcoord(dmFaceUv(baselineFaces[6 * face], baselineFaces[6 * face + 1], uv, du, dv));
+    }
     return dmBaselineAtlasUV(vec2(faces[face].chart.xy), uv, P.atlas.z, P.atlas.xy);
+}
+
+// The tangent the baseline's normal map is stored in at face (u, v) (baselineTangent).
+vec3 baselineTangent(int face, vec2 uv, vec3 su, vec3 N) {
+    if (BASELINE_UV) {
+        int i = 6 * face + 2;
+        return dmFaceTangent(baselineFaces[i].xyz, baselineFaces[i + 1].xyz, baselineFaces[i + 2].xyz, baselineFaces[i + 3].xyz, uv, N);
+    }
+    return dmTangentFromDerivative(su, N);
 }

@@ -53,8 +53,9 @@ void main() {
             n = dmBlendLimitNormal(n, teEv.xyz, teEv.w);
         }
     } else if (TECHNIQUE == 2) {
-        vec3 nts = dmUnpackUnormNormal(textureLod(baselineNormal, baselineUV(teFace, clamp(teUV, vec2(0.0), vec2(1.0))), 0.0).xyz);
-        n = dmTangentSpaceDecode(nts, dmTangentFromDerivative(teSu, N), N);
+        vec2 uv = clamp(teUV, vec2(0.0), vec2(1.0));
+        vec3 nts = dmUnpackUnormNormal(textureLod(baselineNormal, baselineUV(teFace, uv), 0.0).xyz);
+        n = dmTangentSpaceDecode(nts, baselineTangent(teFace, uv, teSu, N), N);
     }
     // Two-sided Lambert with ambient.
     vec3 toEye = P.eye.xyz - teWorld;

@@ -7,13 +7,13 @@
 //   { "mesh": "builtin:box", "isolation": 6,
 //     "displacement": {"function": "waves", "height": "", "tiles": "", "scale": 0.07, "offset": 0,
 //                      "midLevel": 0, "channel": "", "uv": "mesh", "mapFilter": "point",
-//                      "sizes": "uniform", "allowOverlap": false,
+//                      "sizes": "uniform", "sizeTolerance": 0.02, "allowOverlap": false,
 //                      "wrap": false, "k": 5, "mixedSizes": false, "filter": "haar", "sharpBand": 0.25},
 //     "camera": {"eye": [2.6, 2.0, 3.4], "target": [0, 0, 0], "up": [0, 1, 0], "fovY": 40,
 //                "near": 0.05, "far": 100},
 //     "lights": [{"direction": [0.4, 0.8, 0.5], "color": [1, 1, 1]}],
 //     "ambient": 0.15, "albedo": [0.8, 0.78, 0.74], "background": [0, 0, 0],
-//     "resolution": [320, 240], "baselineTexels": 0,
+//     "resolution": [320, 240], "baselineTexels": 0, "baselineLayout": "faces",
 //     "effects": {"technique": "displaced", "normals": "approximate", "autoTolerance": 2,
 //                 "lod": "tessfactor", "wireframe": false, "texelFormat": "float", "texelPath": "buffer",
 //                 "tessellation": {"method": "uniform", "value": 8, "max": 64,
@@ -52,6 +52,7 @@
 #include <nlohmann/json.hpp>
 
 #include "dispmap/surface/uv_map.h"
+#include "dispmap/surface/baseline.h"
 #include "dispmap/surface/builtin.h"
 #include "dispmap/surface/displaced_surface.h"
 #include "dispmap/surface/draw.h"
@@ -99,8 +100,11 @@ struct SceneDisplacement {
     std::string uv = "mesh"; ///< height image: UV interpolation (surface/uv_map.h: mesh, linear, smooth, ...)
     std::string mapFilter = "point"; ///< height image: point, box or tent (surface/map_source.h)
     /// "uniform": k everywhere (or mixedSizes); "texels": per face from the image's texel
-    /// density, at most k (texelTileSizes)
+    /// density, at most k (texelTileSizes); "error": per face the smallest size whose samples
+    /// stay within sizeTolerance of 2^k's (errorTileSizes)
     std::string sizes = "uniform";
+    /// sizes "error": the error smaller tiles may add, in the map's height units (D / scale), (0, 1]
+    double sizeTolerance = 0.02;
     bool allowOverlap = false; ///< height image: accept faces that overlap in UV space
     int k = 5;            ///< log2 tile size of quads (sub-faces of non-quads get k - 1), 1..kMaxTileLog2
     bool mixedSizes = false; ///< quads get k - (ptex face % 3) (>= 1): mixedTileSizes
@@ -132,6 +136,9 @@ struct Scene : SurfaceDraw {
     SceneDisplacement displacement;
     int isolation = 6;   ///< OpenSubdiv isolation level, 1..10
     int baselineTexels = 0; ///< baseline atlas texels per face edge, 0..kMaxBaselineTexels; 0 = 2^k
+    /// The baseline's layout: a chart per face ("faces"), or the mesh's own UVs ("uv": one
+    /// square image with as many texels as the faces layout would have, baselineUvSide).
+    BaselineLayout baselineLayout = BaselineLayout::Faces;
 };
 namespace detail {
 
@@ -142,6 +149,7 @@ template <typename E> struct SceneChoice {
 };
 inline constexpr SceneChoice<Technique> kSceneTechniques[] = {
     {"base", Technique::Base}, {"displaced", Technique::Displaced}, {"baseline", Technique::Baseline}};
+inline constexpr SceneChoice<BaselineLayout> kSceneBaselineLayouts[] = {{"faces", BaselineLayout::Faces}, {"uv", BaselineLayout::MeshUv}};
 inline constexpr SceneChoice<NormalMode> kSceneNormals[] = {
     {"approximate", NormalMode::Approximate}, {"accurate", NormalMode::Accurate}, {"auto", NormalMode::Auto}};
 inline constexpr SceneChoice<MipSelection> kSceneLods[] = {
@@ -353,7 +361,7 @@ inline Scene parseSceneDocument(const nlohmann::json& root, const std::string& n
     s.name = name;
     s.baseDir = baseDir;
     r.object(root, "", {"mesh", "isolation", "displacement", "camera", "lights", "ambient", "albedo", "background",
-                        "resolution", "baselineTexels", "effects"});
+                        "resolution", "baselineTexels", "baselineLayout", "effects"});
     const auto has = [](const Json& j, const char* key) { return j.contains(key); };
     // Numbers of the draw are only read here; their ranges are surfaceDrawProblem's (below),
     // the rule the renderers apply too.
@@ -373,7 +381,7 @@ inline Scene parseSceneDocument(const nlohmann::json& root, const std::string& n
         const Json& d = root["displacement"];
         r.object(d, "displacement",
                  {"function", "height", "tiles", "scale", "offset", "wrap", "k", "mixedSizes", "filter", "sharpBand",
-                  "midLevel", "channel", "uv", "mapFilter", "sizes", "allowOverlap"});
+                  "midLevel", "channel", "uv", "mapFilter", "sizes", "sizeTolerance", "allowOverlap"});
         SceneDisplacement& o = s.displacement;
         if (has(d, "function")) {
             o.function = r.string(d["function"], "displacement.function");
@@ -404,7 +412,12 @@ inline Scene parseSceneDocument(const nlohmann::json& root, const std::string& n
         }
         if (has(d, "sizes")) {
             o.sizes = r.string(d["sizes"], "displacement.sizes");
-            r.oneOf(o.sizes, "displacement.sizes", {"uniform", "texels"});
+            r.oneOf(o.sizes, "displacement.sizes", {"uniform", "texels", "error"});
+        }
+        if (has(d, "sizeTolerance")) {
+            o.sizeTolerance = r.number(d["sizeTolerance"], "displacement.sizeTolerance");
+            if (!(o.sizeTolerance > 0.0 && o.sizeTolerance <= 1.0))
+                r.fail("displacement.sizeTolerance", detail::drawNumber(o.sizeTolerance) + " is not in (0, 1] (the map's height units)");
         }
         if (has(d, "allowOverlap")) o.allowOverlap = r.boolean(d["allowOverlap"], "displacement.allowOverlap");
         if (has(d, "k")) o.k = r.integer(d["k"], "displacement.k", kMinTileLog2, kMaxTileLog2);
@@ -465,6 +478,7 @@ inline Scene parseSceneDocument(const nlohmann::json& root, const std::string& n
     }
     if (has(root, "baselineTexels"))
         s.baselineTexels = r.integer(root["baselineTexels"], "baselineTexels", 0, kMaxBaselineTexels);
+    if (has(root, "baselineLayout")) s.baselineLayout = r.choice(root["baselineLayout"], "baselineLayout", detail::kSceneBaselineLayouts);
 
     if (has(root, "effects")) {
         const Json& e = root["effects"];
@@ -526,7 +540,7 @@ inline std::string toJson(const Scene& s) {
                          {"k", d.k},               {"mixedSizes", d.mixedSizes}, {"filter", d.filter},
                          {"sharpBand", d.sharpBand}, {"midLevel", d.midLevel}, {"channel", d.channel},
                          {"uv", d.uv},             {"mapFilter", d.mapFilter}, {"sizes", d.sizes},
-                         {"allowOverlap", d.allowOverlap}};
+                         {"sizeTolerance", d.sizeTolerance}, {"allowOverlap", d.allowOverlap}};
     const Camera& c = s.camera;
     j["camera"] = {{"eye", v3(c.eye)},       {"target", v3(c.target)}, {"up", v3(c.up)},
                    {"fovY", c.fovYDeg},      {"near", c.nearPlane},    {"far", c.farPlane}};
@@ -538,6 +552,7 @@ inline std::string toJson(const Scene& s) {
     j["background"] = v3(s.background);
     j["resolution"] = Json::array({s.width, s.height});
     j["baselineTexels"] = s.baselineTexels;
+    j["baselineLayout"] = detail::sceneChoiceName(detail::kSceneBaselineLayouts, s.baselineLayout);
     const SurfaceEffects& e = s.effects;
     j["effects"] = {{"technique", detail::sceneChoiceName(detail::kSceneTechniques, e.technique)},
                     {"normals", detail::sceneChoiceName(detail::kSceneNormals, e.normals)},

@@ -30,10 +30,18 @@ struct SceneSurface {
     SceneSurface(const SceneSurface&) = delete;
     SceneSurface& operator=(const SceneSurface&) = delete;
 
-    /// The baseline atlas at the scene's texel density (baselineTexels, or 2^k per face edge),
-    /// baked on first use.
+    /// The baseline atlas at the scene's texel density (baselineTexels, or 2^k per face edge)
+    /// in the scene's layout (the mesh-UV layout with as many texels, its UVs interpolated
+    /// linearly), baked on first use. The UV layout throws ArgumentError for a mesh without UVs.
     const BaselineAtlas& bake(const Scene& scene) {
-        if (!atlas) atlas = bakeBaseline(surface, scene.baselineTexels > 0 ? scene.baselineTexels : 1 << scene.displacement.k);
+        if (atlas) return *atlas;
+        const int n = scene.baselineTexels > 0 ? scene.baselineTexels : 1 << scene.displacement.k;
+        if (scene.baselineLayout == BaselineLayout::MeshUv) {
+            const int side = baselineUvSide(base.faceCount(), n);
+            atlas = bakeBaselineUv(surface, UvMap(mesh, UvInterpolation::Linear), side, side);
+        } else {
+            atlas = bakeBaseline(surface, n);
+        }
         return *atlas;
     }
 

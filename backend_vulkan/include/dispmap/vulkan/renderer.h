@@ -160,4 +160,14 @@ struct ImageError {
 };
 ImageError compareImages(const RenderedImage& test, const RenderedImage& reference);
 
+/// Background pixels not connected to the image border through background: seen whole, a
+/// closed surface of genus 0 has none, so they are holes inside its silhouette, i.e. cracks.
+int enclosedBackground(const RenderedImage& im);
+
+/// Pixels covered in `reference` where `test` sees through that surface: background there, or
+/// a view depth more than `depthGap` (world units) behind the reference's. Both images must
+/// have been rendered with `camera` (its near and far planes turn depth back into distance).
+/// Cracks in `test` that `reference` does not have, wherever the surface behind them is.
+int seeThroughPixels(const RenderedImage& test, const RenderedImage& reference, const Camera& camera, double depthGap);
+
 } // namespace dispmap::vulkan
