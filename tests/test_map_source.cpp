@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -363,6 +364,103 @@ TEST_CASE("tile sizes from the texel density, and a mixed-size build from them",
     BuildReport rep;
     REQUIRE_NOTHROW(buildTiles(spot, k, mapSource(spotUvs, brick, k, o), {}, &rep));
     REQUIRE_THROWS_WITH(texelTileSizes(spot, *spotUvs, brick, 0, 6), Contains("out of range"));
+}
+
+TEST_CASE("tile sizes from a fit-error bound: flat parts get small tiles, the bound holds", "[mapsource]") {
+    // coarsestTileWithin on its own: the chosen size's samples reproduce the fine ones within
+    // the tolerance, and one size smaller would not (unless it is the smallest allowed).
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> noise(-1.0, 1.0);
+    for (int trial = 0; trial < 20; ++trial) {
+        const int kMax = 5, sf = 1 << kMax;
+        std::vector<double> fine(static_cast<std::size_t>(sf * sf));
+        const double wiggle = 0.02 * trial;
+        for (int j = 0; j < sf; ++j)
+            for (int i = 0; i < sf; ++i)
+                fine[static_cast<std::size_t>(j * sf + i)] = std::sin(0.2 * i) * std::cos(0.15 * j) + wiggle * noise(rng);
+        const double tolerance = 0.05;
+        // the interpolation error of size kk's box means against the fine samples
+        const auto errorAt = [&](int kk) {
+            std::vector<double> copy = fine;
+            return coarsestTileWithin(copy, kMax, 1e300, kk) == kk ? copy : std::vector<double>{};
+        };
+        std::vector<double> samples = fine;
+        const int k = coarsestTileWithin(samples, kMax, tolerance, 2);
+        REQUIRE(samples.size() == static_cast<std::size_t>(1 << (2 * k)));
+        CHECK(samples == errorAt(k));
+        const auto maxError = [&](const std::vector<double>& coarse, int kk) {
+            const int s = 1 << kk, r = sf / s;
+            double e = 0.0;
+            for (int j = 0; j < sf; ++j)
+                for (int i = 0; i < sf; ++i) {
+                    const double x = std::clamp((i + 0.5) / r - 0.5, 0.0, s - 1.0), y = std::clamp((j + 0.5) / r - 0.5, 0.0, s - 1.0);
+                    const int x0 = std::min(static_cast<int>(x), s - 2), y0 = std::min(static_cast<int>(y), s - 2);
+                    const double fx = x - x0, fy = y - y0;
+                    const auto at = [&](int a, int b) { return coarse[static_cast<std::size_t>(b * s + a)]; };
+                    const double v = (1 - fy) * ((1 - fx) * at(x0, y0) + fx * at(x0 + 1, y0)) + fy * ((1 - fx) * at(x0, y0 + 1) + fx * at(x0 + 1, y0 + 1));
+                    e = std::max(e, std::abs(v - fine[static_cast<std::size_t>(j * sf + i)]));
+                }
+            return e;
+        };
+        INFO("trial " << trial << ": k " << k);
+        if (k < kMax) CHECK(maxError(samples, k) <= tolerance);
+        if (k > 2) CHECK(maxError(errorAt(k - 1), k - 1) > tolerance);
+    }
+
+    // On a mesh: a map flat on its left half and rippled on its right; faces over the ripples
+    // keep the largest size, those over the flat half step down one level per face away from
+    // them (the balance rule) to the smallest.
+    const ControlMesh grid = ControlMesh::fromObjText(dmtest::gridObj(4, 4), "grid");
+    const auto uvs = std::make_shared<const UvMap>(grid, UvInterpolation::Linear);
+    HeightMaps maps;
+    maps.images[0] = imageOf(256, 256, [](double u, double v) { return u < 0.5 ? 0.5 : 0.5 + 0.4 * std::sin(40.0 * u) * std::sin(30.0 * v); });
+    MapSourceOptions o;
+    o.filter = MapFilter::Box;
+    const std::vector<int> k = errorTileSizes(grid, uvs, maps, 1, 5, 0.01, o);
+    for (int t = 0; t < grid.ptexFaceCount(); ++t) {
+        const double u = (*uvs)(t, 0.5, 0.5).x;
+        INFO("face " << t << " at u " << u);
+        CHECK(k[static_cast<std::size_t>(t)] == (u > 0.5 ? 5 : u > 0.25 ? 4 : 3));
+    }
+    const std::vector<int> flat = errorTileSizes(ControlMesh::fromObjText(dmtest::gridObj(1, 1), "one face"),
+                                                 std::make_shared<const UvMap>(ControlMesh::fromObjText(dmtest::gridObj(1, 1), "one face"),
+                                                                               UvInterpolation::Linear),
+                                                 [] {
+                                                     HeightMaps m;
+                                                     m.images[0] = imageOf(64, 64, [](double, double) { return 0.25; });
+                                                     return m;
+                                                 }(),
+                                                 1, 5, 0.01, o);
+    CHECK(flat == std::vector<int>{1}); // a flat map: the smallest tile
+    BuildReport rep;
+    REQUIRE_NOTHROW(buildTiles(grid, k, mapSource(uvs, maps, k, o), {}, &rep));
+    // Spot's N-gons pin their sub-faces (k - 1) and the quads next to them (k).
+    const ControlMesh spot = dmtest::shape("spot_control_mesh");
+    HeightMaps brick;
+    brick.images[0] = std::make_shared<const HeightImage>(readHeightPng(dmtest::dataPath("skimage_brick.png")));
+    const auto spotUvs = std::make_shared<const UvMap>(spot, UvInterpolation::Linear);
+    o.wrap = true;
+    const std::vector<int> loose = errorTileSizes(spot, spotUvs, brick, 1, 5, 10.0, o);
+    const std::vector<char> pinned = quadsPinnedByNonQuads(spot);
+    const Far::TopologyLevel& L = spot.base();
+    int smallest = 5;
+    for (int f = 0; f < L.GetNumFaces(); ++f) {
+        const int t = spot.ptex().GetFaceId(f);
+        const bool quad = L.GetFaceVertices(f).size() == 4;
+        if (!quad) CHECK(loose[static_cast<std::size_t>(t)] == 4);
+        if (quad && pinned[static_cast<std::size_t>(f)]) CHECK(loose[static_cast<std::size_t>(t)] == 5);
+        if (quad) smallest = std::min(smallest, loose[static_cast<std::size_t>(t)]);
+    }
+    CHECK(smallest == 1);
+    // Balanced: neighbours one level apart at most (a sub-face's k + 1 is a quad's k).
+    const TileTopology topo(spot);
+    for (int t = 0; t < topo.tileCount(); ++t)
+        for (int e = 0; e < 4; ++e)
+            for (const TileTopology::Link& l : topo.links(t, e))
+                CHECK(std::abs(loose[static_cast<std::size_t>(t)] + topo.scale(t) - loose[static_cast<std::size_t>(l.tile)] - topo.scale(l.tile)) <= 1);
+    CHECK_THROWS_WITH(errorTileSizes(spot, spotUvs, brick, 1, 5, 0.0, o), Contains("tolerance"));
+    CHECK_THROWS_WITH(errorTileSizes(spot, spotUvs, brick, 1, 5, std::nan(""), o), Contains("tolerance"));
+    CHECK_THROWS_WITH(errorTileSizes(spot, spotUvs, brick, 6, 5, 0.1, o), Contains("out of range"));
 }
 
 TEST_CASE("D is continuous across UV seams although the map is not", "[mapsource]") {

@@ -137,44 +137,16 @@ inline std::vector<std::vector<double>> extractSamples(const BaseSurface& base, 
     return out;
 }
 
-/// Per-face tile sizes from the local detail (§4.4's mixed sizes, chosen by the data): for each
-/// tile, the smallest k whose samples (the 2^(kMax - k)-square box means of the kMax samples,
-/// i.e. prefiltered) reproduce every kMax sample within `tolerance` when interpolated
-/// bilinearly between their centres (clamped at the tile's border). A smooth stretch of a scan
-/// gets small tiles, wrinkles keep the full size. `samples` (at kMax, as extractSamples gives
-/// them) are replaced by those of the chosen sizes; returns the sizes. All tiles must be quads'
-/// (one size per Ptex face, no T-junctions: a baked base mesh is all quads).
+/// Per-face tile sizes from the local detail (coarsestTileWithin for every tile, in
+/// parallel): a smooth stretch of a scan gets small tiles, wrinkles keep the full size.
+/// `samples` (at kMax, as extractSamples gives them) are replaced by those of the chosen
+/// sizes; returns the sizes. All tiles must be quads' (one size per Ptex face, no
+/// T-junctions: a baked base mesh is all quads).
 inline std::vector<int> adaptiveTileSizes(std::vector<std::vector<double>>& samples, int kMax, double tolerance, int kMin = kMinTileLog2) {
-    kMin = std::max(kMin, 1); // two samples a side at least (the interpolation below)
     const int n = static_cast<int>(samples.size());
     std::vector<int> k(static_cast<std::size_t>(n), kMax);
     tbb::parallel_for(0, n, [&](int t) {
-        std::vector<double>& fine = samples[static_cast<std::size_t>(t)];
-        const int sf = 1 << kMax;
-        std::vector<double> best = fine;
-        for (int kk = kMax - 1; kk >= kMin; --kk) {
-            const int s = 1 << kk, r = sf / s;
-            std::vector<double> coarse(static_cast<std::size_t>(s * s), 0.0);
-            for (int j = 0; j < sf; ++j)
-                for (int i = 0; i < sf; ++i) coarse[static_cast<std::size_t>((j / r) * s + i / r)] += fine[static_cast<std::size_t>(j * sf + i)];
-            for (double& c : coarse) c /= static_cast<double>(r * r);
-            double err = 0.0;
-            for (int j = 0; j < sf && err <= tolerance; ++j)
-                for (int i = 0; i < sf; ++i) {
-                    // the fine centre in coarse sample coordinates
-                    const double x = std::clamp((i + 0.5) / r - 0.5, 0.0, s - 1.0), y = std::clamp((j + 0.5) / r - 0.5, 0.0, s - 1.0);
-                    const int x0 = std::min(static_cast<int>(x), s - 2), y0 = std::min(static_cast<int>(y), s - 2); // s >= 2
-                    const int x1 = x0 + 1, y1 = y0 + 1;
-                    const double fx = x - x0, fy = y - y0;
-                    auto at = [&](int a, int b) { return coarse[static_cast<std::size_t>(b * s + a)]; };
-                    const double v = (1 - fy) * ((1 - fx) * at(x0, y0) + fx * at(x1, y0)) + fy * ((1 - fx) * at(x0, y1) + fx * at(x1, y1));
-                    err = std::max(err, std::abs(v - fine[static_cast<std::size_t>(j * sf + i)]));
-                }
-            if (err > tolerance) break;
-            k[static_cast<std::size_t>(t)] = kk;
-            best = std::move(coarse);
-        }
-        fine = std::move(best);
+        k[static_cast<std::size_t>(t)] = coarsestTileWithin(samples[static_cast<std::size_t>(t)], kMax, tolerance, kMin);
     });
     return k;
 }

@@ -52,7 +52,8 @@ inline ControlMesh sceneMesh(const Scene& scene) {
 /// file, or built from the height image (one image or a UDIM set: io/image_files.h, placed
 /// through the UV rule `uv` with the map filter: surface/map_source.h) or the procedural
 /// function, with tile sizes 2^k (mixedTileSizes if mixedSizes, texelTileSizes up to k if
-/// sizes is "texels") and the mip filter (`dispmap tiles` and sceneTiles). The
+/// sizes is "texels", errorTileSizes up to k within sizeTolerance x |scale| if "error") and the
+/// mip filter (`dispmap tiles` and sceneTiles). The
 /// scale and offset are checked first (displacementProblem: |offset| + |scale| <=
 /// kMaxDisplacement), before any file is read.
 /// `report` (if given) receives the fit's report when tiles are built. Throws FileError for a
@@ -82,10 +83,12 @@ inline TileSet displacementTiles(const ControlMesh& mesh, const SceneDisplacemen
     if (!uvRule) throw ArgumentError("displacement.uv: unknown value '" + d.uv + "' (" + uvInterpolationNames() + ")");
     const std::optional<MapFilter> mapFilter = parseMapFilter(d.mapFilter);
     if (!mapFilter) throw ArgumentError("displacement.mapFilter: unknown value '" + d.mapFilter + "' (point, box, tent)");
-    if (d.sizes != "uniform" && d.sizes != "texels")
-        throw ArgumentError("displacement.sizes: unknown value '" + d.sizes + "' (uniform, texels)");
-    if (d.sizes == "texels" && d.height.empty()) throw ArgumentError("displacement.sizes: \"texels\" needs a height image");
-    if (d.sizes == "texels" && d.mixedSizes) throw ArgumentError("displacement: give mixedSizes or sizes \"texels\", not both");
+    if (d.sizes != "uniform" && d.sizes != "texels" && d.sizes != "error")
+        throw ArgumentError("displacement.sizes: unknown value '" + d.sizes + "' (uniform, texels, error)");
+    if (d.sizes != "uniform" && d.height.empty()) throw ArgumentError("displacement.sizes: \"" + d.sizes + "\" needs a height image");
+    if (d.sizes != "uniform" && d.mixedSizes) throw ArgumentError("displacement: give mixedSizes or sizes \"" + d.sizes + "\", not both");
+    if (!(d.sizeTolerance > 0.0 && d.sizeTolerance <= 1.0))
+        throw ArgumentError("displacement.sizeTolerance: " + std::to_string(d.sizeTolerance) + " is not in (0, 1] (the map's height units)");
     if (!std::isfinite(d.midLevel) || std::abs(d.midLevel) > kMaxDisplacement)
         throw ArgumentError("displacement.midLevel: must be finite, at most " + std::to_string(kMaxDisplacement) + " in size");
     try {
@@ -96,9 +99,6 @@ inline TileSet displacementTiles(const ControlMesh& mesh, const SceneDisplacemen
             ro.channel = d.channel;
             const HeightMaps maps = readHeightMaps(d.height, ro);
             auto uvs = std::make_shared<const UvMap>(mesh, *uvRule);
-            k = d.sizes == "texels" ? texelTileSizes(mesh, *uvs, maps, kMinTileLog2, d.k)
-                : d.mixedSizes      ? mixedTileSizes(mesh, d.k)
-                                    : uniformTileSizes(mesh, d.k);
             MapSourceOptions mo;
             mo.scale = d.scale;
             mo.offset = d.offset;
@@ -106,6 +106,10 @@ inline TileSet displacementTiles(const ControlMesh& mesh, const SceneDisplacemen
             mo.wrap = d.wrap;
             mo.filter = *mapFilter;
             mo.allowOverlap = d.allowOverlap;
+            k = d.sizes == "texels" ? texelTileSizes(mesh, *uvs, maps, kMinTileLog2, d.k)
+                : d.sizes == "error" ? errorTileSizes(mesh, uvs, maps, kMinTileLog2, d.k, d.sizeTolerance * std::abs(d.scale), mo)
+                : d.mixedSizes      ? mixedTileSizes(mesh, d.k)
+                                    : uniformTileSizes(mesh, d.k);
             DisplacementFunction mapped = mapSource(uvs, maps, k, mo);
             // float heights are not bounded by [0, 1]: the displacement's bound is checked per sample
             source = [mapped = std::move(mapped)](int f, double u, double v) {

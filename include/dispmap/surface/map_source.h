@@ -391,4 +391,55 @@ inline std::vector<int> texelTileSizes(const ControlMesh& mesh, const UvMap& uvs
     return out;
 }
 
+/// Per-ptex-face tile sizes from a fit-error bound (coarsestTileWithin, the bake's --adaptive
+/// rule): each quad's D sampled through `options` (filter, scale, mid-level...) at 2^kMax x
+/// 2^kMax sub-patch centres, then the smallest k in [kMin, kMax] whose box-filtered samples
+/// reproduce those within `tolerance` (in D's units) by bilinear interpolation. Flat or smooth
+/// stretches of the map get small tiles, detail keeps 2^kMax. Non-quads' sub-faces take
+/// kMax - 1 and the quads pinned by them kMax (the builder's T-junction rule, as
+/// texelTileSizes). Then neighbours are balanced to one level apart at most (raising the
+/// smaller), since a tile's overlap ring comes from its neighbours' mips. Throws ArgumentError for sizes out of range or a tolerance that is not
+/// finite and > 0; propagates what mapSource throws.
+inline std::vector<int> errorTileSizes(const ControlMesh& mesh, std::shared_ptr<const UvMap> uvs, const HeightMaps& maps, int kMin,
+                                       int kMax, double tolerance, const MapSourceOptions& options = {}) {
+    std::vector<int> out = uniformTileSizes(mesh, kMax); // checks kMax, and sub-faces take kMax - 1
+    if (kMin < kMinTileLog2 || kMin > kMax)
+        throw ArgumentError("smallest tile size 2^" + std::to_string(kMin) + " out of range [2^" + std::to_string(kMinTileLog2) +
+                            ", 2^" + std::to_string(kMax) + "]");
+    if (!(tolerance > 0.0) || !std::isfinite(tolerance))
+        throw ArgumentError("tile size tolerance " + std::to_string(tolerance) + " must be finite and > 0");
+    const DisplacementFunction src = mapSource(std::move(uvs), maps, out, options);
+    const std::vector<char> pinned = quadsPinnedByNonQuads(mesh);
+    const Far::TopologyLevel& L = mesh.base();
+    const int s = 1 << kMax;
+    std::vector<double> fine;
+    for (int f = 0; f < L.GetNumFaces(); ++f) {
+        if (L.GetFaceVertices(f).size() != 4 || pinned[static_cast<std::size_t>(f)]) continue;
+        const int t = mesh.ptex().GetFaceId(f);
+        fine.resize(static_cast<std::size_t>(s) * static_cast<std::size_t>(s)); // the last face's were replaced by coarser ones
+        for (int j = 0; j < s; ++j)
+            for (int i = 0; i < s; ++i) fine[static_cast<std::size_t>(j * s + i)] = src(t, (i + 0.5) / s, (j + 0.5) / s);
+        out[static_cast<std::size_t>(t)] = coarsestTileWithin(fine, kMax, tolerance, kMin);
+    }
+    // Balance: neighbours differ by at most one level (in texel spacing: a sub-face's k + 1 is a
+    // quad's k). A tile's overlap ring comes from its neighbours' mips at its own resolution;
+    // a 2 x 2 tile next to a 64 x 64 one would take the detail's coarse mean into its whole
+    // interior, which is not within the tolerance of its own data.
+    const TileTopology topo(mesh);
+    for (bool changed = true; changed;) {
+        changed = false;
+        for (int t = 0; t < topo.tileCount(); ++t)
+            for (int e = 0; e < 4; ++e)
+                for (const TileTopology::Link& l : topo.links(t, e)) {
+                    const int mine = out[static_cast<std::size_t>(t)] + topo.scale(t);
+                    const int theirs = out[static_cast<std::size_t>(l.tile)] + topo.scale(l.tile);
+                    if (mine < theirs - 1) {
+                        out[static_cast<std::size_t>(t)] = theirs - 1 - topo.scale(t);
+                        changed = true;
+                    }
+                }
+    }
+    return out;
+}
+
 } // namespace dispmap

@@ -112,6 +112,44 @@ inline std::vector<int> uniformTileSizes(const ControlMesh& mesh, int k) {
     return out;
 }
 
+/// The size one tile needs for its data (§4.4's mixed sizes, chosen by the data): given its
+/// 2^kMax x 2^kMax samples at the sub-patch centres (row j = v, `fine`), the smallest k in
+/// [max(kMin, 1), kMax] whose samples, the 2^(kMax - k)-square box means of the fine ones (i.e.
+/// prefiltered), reproduce every fine sample within `tolerance` when interpolated bilinearly
+/// between their centres (clamped at the tile's border). Returns k; `fine` is replaced by the
+/// samples at k. Sizes only grow the error monotonically in practice, so the search stops at
+/// the first k that fails.
+inline int coarsestTileWithin(std::vector<double>& fine, int kMax, double tolerance, int kMin = kMinTileLog2) {
+    kMin = std::max(kMin, 1); // two samples a side at least (the interpolation below)
+    const int sf = 1 << kMax;
+    int chosen = kMax;
+    std::vector<double> best = fine;
+    for (int kk = kMax - 1; kk >= kMin; --kk) {
+        const int s = 1 << kk, r = sf / s;
+        std::vector<double> coarse(static_cast<std::size_t>(s * s), 0.0);
+        for (int j = 0; j < sf; ++j)
+            for (int i = 0; i < sf; ++i) coarse[static_cast<std::size_t>((j / r) * s + i / r)] += fine[static_cast<std::size_t>(j * sf + i)];
+        for (double& c : coarse) c /= static_cast<double>(r * r);
+        double err = 0.0;
+        for (int j = 0; j < sf && err <= tolerance; ++j)
+            for (int i = 0; i < sf; ++i) {
+                // the fine centre in coarse sample coordinates
+                const double x = std::clamp((i + 0.5) / r - 0.5, 0.0, s - 1.0), y = std::clamp((j + 0.5) / r - 0.5, 0.0, s - 1.0);
+                const int x0 = std::min(static_cast<int>(x), s - 2), y0 = std::min(static_cast<int>(y), s - 2); // s >= 2
+                const int x1 = x0 + 1, y1 = y0 + 1;
+                const double fx = x - x0, fy = y - y0;
+                const auto at = [&](int a, int b) { return coarse[static_cast<std::size_t>(b * s + a)]; };
+                const double v = (1 - fy) * ((1 - fx) * at(x0, y0) + fx * at(x1, y0)) + fy * ((1 - fx) * at(x0, y1) + fx * at(x1, y1));
+                err = std::max(err, std::abs(v - fine[static_cast<std::size_t>(j * sf + i)]));
+            }
+        if (err > tolerance) break;
+        chosen = kk;
+        best = std::move(coarse);
+    }
+    fine = std::move(best);
+    return chosen;
+}
+
 namespace detail {
 
 /// The working state of a build: every level of every tile in double precision.
