@@ -7,6 +7,7 @@
 //   dispmap parity                    every kernel on the GPU (lavapipe by default) against C++
 //   dispmap render [SCENE] -o out.png render a scene file (or the embedded default) headless
 //   dispmap meso --height h.png -o m.dmm   mesostructure maps from a height image; --table: the table
+//   dispmap maps --table / --seams    the displacement-map table; the traditional baseline at UV seams (Figure 7)
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
@@ -43,6 +44,7 @@
 #include "render.h"
 #include "bake.h"
 #include "maps_table.h"
+#include "uv_seams_table.h"
 #include "gltf_export.h"
 #include "seams_table.h"
 
@@ -80,7 +82,7 @@ struct SourceArgs {
     std::string mesh, height, load, filter = "haar", function = "waves";
     std::string channel, uv = "mesh", mapFilter = "point", sizes = "uniform";
     int k = 4;
-    double scale = 0.1, offset = 0.0, midLevel = 0.0;
+    double scale = 0.1, offset = 0.0, midLevel = 0.0, sizeTolerance = 0.02;
     bool wrap = false, allowOverlap = false;
 };
 
@@ -95,7 +97,10 @@ void addSourceOptions(CLI::App* cmd, SourceArgs& a) {
     cmd->add_option("--uv", a.uv, "UV interpolation: mesh (the OBJ's facevaryinginterpolateboundary tag, else linear), linear, "
                                   "smooth, corners, corners+1, corners+2, boundaries");
     cmd->add_option("--map-filter", a.mapFilter, "each sample of the map: point, box (its footprint), tent (twice its footprint)");
-    cmd->add_option("--sizes", a.sizes, "tile sizes: uniform (2^k), texels (per face from the map's texel density, at most 2^k)");
+    cmd->add_option("--sizes", a.sizes, "tile sizes: uniform (2^k), texels (per face from the map's texel density, at most 2^k), "
+                                        "error (per face the smallest whose samples stay within --size-tolerance of 2^k's)");
+    cmd->add_option("--size-tolerance", a.sizeTolerance, "with --sizes error: the error smaller tiles may add, in the map's "
+                                                         "height units, (0, 1] (default 0.02)");
     cmd->add_flag("--allow-overlap", a.allowOverlap, "accept faces that overlap in UV space");
     cmd->add_flag("--wrap", a.wrap, "wrap texture coordinates outside [0, 1]");
     cmd->add_option("--function", a.function, "procedural source when no image: waves, zero");
@@ -119,6 +124,7 @@ SceneDisplacement sceneDisplacement(const SourceArgs& a) {
     d.uv = a.uv;
     d.mapFilter = a.mapFilter;
     d.sizes = a.sizes;
+    d.sizeTolerance = a.sizeTolerance;
     d.allowOverlap = a.allowOverlap;
     d.k = a.k;
     d.filter = a.filter;
@@ -635,6 +641,10 @@ int main(int argc, char** argv) {
     mapsCmd->add_flag("--table", mapsTable, "print the table (markdown)");
     mapsCmd->add_flag("--quick", mta.quick, "a 512 map for the formats rows instead of 2048, one frame a GPU row");
     mapsCmd->add_option("--device", mta.device, "Vulkan device of the GPU rows (name substring; default: the first)");
+    bool mapsSeams = false;
+    std::string mapsImages;
+    mapsCmd->add_flag("--seams", mapsSeams, "print the Figure 7 table: the traditional baseline on the mesh's UVs at UV seams");
+    mapsCmd->add_option("--images", mapsImages, "with --seams: write the pictures (PNG) to this folder");
     figures::BakeArgs ba;
     ba.denseDir = DISPMAP_DENSE_DIR;
     ba.skeletonDir = DISPMAP_SKELETON_DIR;
@@ -674,8 +684,17 @@ int main(int argc, char** argv) {
         if (*mesoCmd) return mesoCommand(ma);
         if (*bakeCmd) return figures::bakeCommand(ba);
         if (*mapsCmd) {
-            if (!mapsTable) throw ArgumentError("dispmap maps: give --table");
-            figures::printMapsTable(std::cout, mta);
+            if (!mapsTable && !mapsSeams) throw ArgumentError("dispmap maps: give --table or --seams");
+            if (!mapsImages.empty() && !mapsSeams) throw ArgumentError("dispmap maps: --images goes with --seams");
+            if (mapsTable) figures::printMapsTable(std::cout, mta);
+            if (mapsSeams) {
+                figures::UvSeamsTableArgs ua;
+                ua.dataDir = mta.dataDir;
+                ua.quick = mta.quick;
+                ua.device = mta.device;
+                ua.images = mapsImages;
+                figures::printUvSeamsTable(std::cout, ua);
+            }
             return 0;
         }
         if (*benchCmd) {

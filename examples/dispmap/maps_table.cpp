@@ -14,6 +14,7 @@
 
 #include <unistd.h>
 
+#include "text_format.h"
 #include "dispmap/io/image_files.h"
 #include "dispmap/io/png.h"
 #include "dispmap/io/tile_file.h"
@@ -34,17 +35,6 @@ double secondsSince(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-std::string fixed(double v, int digits) {
-    char b[64];
-    std::snprintf(b, sizeof b, "%.*f", digits, v);
-    return b;
-}
-
-std::string sci(double v) {
-    char b[64];
-    std::snprintf(b, sizeof b, "%.2e", v);
-    return b;
-}
 
 /// Max and RMS of D(tiles) - ref(face, u, v) over n x n points of every tile.
 struct Errors {
@@ -171,24 +161,44 @@ void printMapsTable(std::ostream& out, const MapsTableArgs& a) {
     // --- 3. Tile sizes from the texel density against uniform sizes.
     {
         out << "Tile sizes: the brick map on Spot, box filter. Uniform 2^k against per-face sizes from the map's texel density "
-            << "(at most 2^k); error against the full-resolution map at 16 x 16 points per tile:\n\n";
+            << "(at most 2^k) and from a fit-error bound (errorTileSizes: the smallest k whose box-filtered samples reproduce the "
+            << "2^6 samples within the tolerance, heights in [0, 1]); build s includes choosing the sizes; error against the "
+            << "full-resolution map at 16 x 16 points per tile. The last two rows: the map with its left half flat (detail on "
+            << "part of the model):\n\n";
         out << "| sizes | k (max) | texels | tile file bytes | build s | max error | rms error |\n|---|---:|---:|---:|---:|---:|---:|\n";
+        MapSourceOptions o;
+        o.wrap = true;
+        o.filter = MapFilter::Box;
+        // The bricks on the right half of the map only (s >= 0.5), the left half flat at 0.5: detail
+        // on part of a model, as sculpts have it.
+        HeightImage halfImage = brickImage;
+        for (int y = 0; y < halfImage.height; ++y)
+            for (int x = 0; x < halfImage.width / 2; ++x) halfImage.values[static_cast<std::size_t>(y * halfImage.width + x)] = 0.5f;
+        HeightMaps half;
+        half.images[0] = std::make_shared<const HeightImage>(halfImage);
+        const auto halfRes = [&](int t, double u, double v) {
+            const glm::dvec2 p = (*linear)(t, u, v);
+            return sampleHeightBilinear(halfImage, p.x, p.y, true);
+        };
+        const auto row = [&](const std::string& name, int kk, auto sizes, bool halfFlat = false) {
+            const auto t0 = std::chrono::steady_clock::now();
+            const std::vector<int> k = sizes();
+            const TileSet ts = buildTiles(spot, k, mapSource(linear, halfFlat ? half : brick, k, o));
+            const double s = secondsSince(t0);
+            std::uint64_t count = 0;
+            for (int t = 0; t < ts.tileCount(); ++t) count += static_cast<std::uint64_t>(1) << (2 * k[static_cast<std::size_t>(t)]);
+            const Errors e = halfFlat ? tileErrors(ts, 16, halfRes) : tileErrors(ts, 16, fullRes);
+            out << "| " << name << " | " << kk << " | " << count << " | " << tileFileBytes(ts) << " | " << fixed(s, 2) << " | "
+                << fixed(e.max, 4) << " | " << fixed(e.rms, 4) << " |\n";
+        };
         for (int kk : {4, 5, 6}) {
-            for (bool texels : {false, true}) {
-                const std::vector<int> k = texels ? texelTileSizes(spot, *linear, brick, kMinTileLog2, kk) : uniformTileSizes(spot, kk);
-                MapSourceOptions o;
-                o.wrap = true;
-                o.filter = MapFilter::Box;
-                const auto t0 = std::chrono::steady_clock::now();
-                const TileSet ts = buildTiles(spot, k, mapSource(linear, brick, k, o));
-                const double s = secondsSince(t0);
-                std::uint64_t count = 0;
-                for (int t = 0; t < ts.tileCount(); ++t) count += static_cast<std::uint64_t>(1) << (2 * k[static_cast<std::size_t>(t)]);
-                const Errors e = tileErrors(ts, 16, fullRes);
-                out << "| " << (texels ? "texel density" : "uniform") << " | " << kk << " | " << count << " | " << tileFileBytes(ts) << " | "
-                    << fixed(s, 2) << " | " << fixed(e.max, 4) << " | " << fixed(e.rms, 4) << " |\n";
-            }
+            row("uniform", kk, [&] { return uniformTileSizes(spot, kk); });
+            row("texel density", kk, [&] { return texelTileSizes(spot, *linear, brick, kMinTileLog2, kk); });
         }
+        for (double tolerance : {0.2, 0.1, 0.05, 0.025})
+            row("fit error <= " + fixed(tolerance, 3), 6, [&] { return errorTileSizes(spot, linear, brick, kMinTileLog2, 6, tolerance, o); });
+        row("uniform, half-flat map", 6, [&] { return uniformTileSizes(spot, 6); }, true);
+        row("fit error <= 0.025, half-flat map", 6, [&] { return errorTileSizes(spot, linear, half, kMinTileLog2, 6, 0.025, o); }, true);
         out << "\n";
     }
 

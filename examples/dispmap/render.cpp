@@ -11,6 +11,7 @@
 #include <sstream>
 #include <vector>
 
+#include "text_format.h"
 #include "dispmap/io/png.h"
 #include "dispmap/scene/surface.h"
 #include "dispmap/scene/meso.h"
@@ -33,11 +34,6 @@ void writePng(const vulkan::RenderedImage& im, const std::string& path) {
     writeRgbaPng(path, im.width, im.height, im.rgba.data());
 }
 
-std::string fixed(double x, int digits) {
-    std::ostringstream s;
-    s << std::fixed << std::setprecision(digits) << x;
-    return s.str();
-}
 
 } // namespace
 
