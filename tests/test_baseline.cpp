@@ -474,15 +474,23 @@ TEST_CASE("baseline on the mesh's UVs: gutters, bad input", "[baseline]") {
     CHECK_THROWS_WITH(bakeBaselineUv(spot.surface, spot.linear, 64, 64, 65), Catch::Contains("gutter"));
     const Baked box;
     CHECK_THROWS_WITH(bakeBaselineUv(box.surface, spot.linear, 64, 64), Catch::Contains("ptex faces"));
-    // UVs in a far UDIM tile: one repeating tile only.
+    // UVs in the next UDIM tile (1002): one repeating tile only.
     MeshDescription d = parseObj(dmtest::gridObj(3, 3), "shifted grid");
-    for (glm::dvec2& t : d.uvs) t.x += 2.5;
+    for (glm::dvec2& t : d.uvs) t.x += 1.0;
     const ControlMesh shifted(d);
     const TileSet flat = buildTiles(shifted, uniformTileSizes(shifted, 2), [](int, double, double) { return 0.0; });
     const BaseSurface shiftedBase(shifted);
     const DisplacedSurface shiftedSurface(shiftedBase, flat);
     CHECK_THROWS_WITH(bakeBaselineUv(shiftedSurface, UvMap(shifted, UvInterpolation::Linear), 64, 64),
-                      Catch::Contains("outside [-1, 2]^2") && Catch::Contains("ptex face 0"));
+                      Catch::Contains("outside the UV square") && Catch::Contains("ptex face 0"));
+    // A layout without overlaps shares no texel; Spot's shells reach past the square onto
+    // other charts (its UVs leave [0, 1]^2 by 5 %).
+    const ControlMesh gridMesh(parseObj(dmtest::gridObj(4, 4), "grid"));
+    const TileSet gridTiles = buildTiles(gridMesh, uniformTileSizes(gridMesh, 2), [](int, double, double) { return 0.0; });
+    const BaseSurface gridBase(gridMesh);
+    const DisplacedSurface gridSurface(gridBase, gridTiles);
+    CHECK(bakeBaselineUv(gridSurface, UvMap(gridMesh, UvInterpolation::Linear), 64, 64).sharedTexels == 0);
+    CHECK(padded.sharedTexels > 0);
     const BaselineAtlas a = bakeBaselineUv(spot.surface, spot.linear, 32, 32);
     CHECK_THROWS_AS(sampleBaselineNormal(a, -1, 0.5, 0.5, glm::dvec3(1, 0, 0), glm::dvec3(0, 0, 1)), ArgumentError);
     CHECK_THROWS_AS(sampleBaselineHeight(a, a.faceCount(), 0.5, 0.5), ArgumentError);

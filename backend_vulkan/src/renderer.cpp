@@ -67,8 +67,8 @@ constexpr std::uint32_t kCaptureHeader = 16;
 
 enum Binding : std::uint32_t {
     kParams, kPoints, kPatchIndices, kPatches, kNodes, kFaceRoots, kCornerNormals, kTexels, kRecords,
-    kFaces, kBaseVertices, kRingIndices, kTileVertices, kSpreadIndices, kDrawFaces, kCapture, kBaselineFaces,
-    kStorageBindings, // = 17
+    kFaces, kBaseVertices, kRingIndices, kTileVertices, kSpreadIndices, kDrawFaces, kCapture,
+    kStorageBindings, // = 16
     kBaselineHeight = kStorageBindings, kBaselineNormal, kPackedImage, kBindingCount
 };
 
@@ -294,14 +294,14 @@ struct SurfaceRenderer::Impl {
             if (atlas->faceCount() != surface.base().faceCount())
                 throw ArgumentError("the baseline atlas has " + std::to_string(atlas->faceCount()) + " faces, the surface " +
                                     std::to_string(surface.base().faceCount()));
-            if (baselineUv) { // 6 vec4 a face: corner UVs, then corner tangents (BaselineFaces of common.glsl)
+            if (baselineUv) { // 6 vec4 a face: corner UVs, then corner tangents (Records of common.glsl, as float bits)
                 std::vector<glm::vec4> data;
                 data.reserve(6 * static_cast<std::size_t>(atlas->faceCount()));
                 for (int f = 0; f < atlas->faceCount(); ++f) {
                     for (int i = 0; i < 2; ++i) data.push_back(atlas->faceUvs[2 * static_cast<std::size_t>(f) + static_cast<std::size_t>(i)]);
                     for (int i = 0; i < 4; ++i) data.push_back(atlas->cornerTangents[4 * static_cast<std::size_t>(f) + static_cast<std::size_t>(i)]);
                 }
-                upload(kBaselineFaces, data);
+                upload(kRecords, data);
             }
         }
         const PackedSurface ps(surface.base());

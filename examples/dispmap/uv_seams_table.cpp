@@ -108,7 +108,8 @@ void printUvSeamsTable(std::ostream& out, const UvSeamsTableArgs& a) {
     const double size = rows[0].seams.size;
     out << "The traditional baseline at UV seams (the paper's Figure 7): Spot (" << faces << " faces, UV layout with "
         << rows[0].seams.seams.points << " seam points of " << rows[0].seams.seams.points + rows[0].seams.inside.points
-        << ") with the 512 x 512 brick map, max |D| " << sci(dMax / size) << " of the mesh size. Each technique evaluated on both "
+        << ", " << rows[uvRow].atlas->sharedTexels << " texels of the mesh-UV image covered by two faces) with the 512 x 512 "
+        << "brick map, max |D| " << sci(dMax / size) << " of the mesh size. Each technique evaluated on both "
         << "sides of every edge at 17 points (measureUvSeams): the crack (distance between the two sides' displaced points, of the "
         << "mesh size) and the shading jump (angle between the two sides' normals). The baselines are baked from dispmap's "
         << "surface, so all rows show the same surface; mesh UVs: bilinear over each face, per-vertex tangents:\n\n";
@@ -155,6 +156,7 @@ void printUvSeamsTable(std::ostream& out, const UvSeamsTableArgs& a) {
 
     if (!a.images.empty()) {
         const UvSeamClass& worst = rows[uvRow].seams.seams;
+        if (worst.worstFace < 0) throw ArgumentError("dispmap maps --seams: the mesh has no UV seams to look at");
         const SurfaceSample<double> s = surface.evaluate<double>(worst.worstFace, worst.worstUv.x, worst.worstUv.y, NormalMode::Accurate);
         SurfaceDraw close = draw;
         close.width = close.height = a.quick ? 240 : 400;

@@ -59,6 +59,10 @@ layout(std430, set = 0, binding = 5) readonly buffer FaceRoots { uint faceRoots[
 layout(std430, set = 0, binding = 6) readonly buffer CornerNormals { vec4 cornerNormals[]; };
 // The packed tiles' texels: float bits, or two half floats a word (low half first).
 layout(std430, set = 0, binding = 7) readonly buffer Texels { uint texelWords[]; };
+// The displaced technique's patch records; for the mesh-UV baseline (BASELINE_UV), 6 a face
+// holding float bits: corner UVs (c0, c1), (c2, c3), then the per-vertex tangents at the four
+// corners (xyz). One binding for the two techniques' per-face data keeps the set at 16 storage
+// buffers.
 layout(std430, set = 0, binding = 8) readonly buffer Records { uvec4 records[]; };
 struct Face {
     uvec4 corners; // TileTopology vertex ids of the corners (0 (0,0), 1 (1,0), 2 (1,1), 3 (0,1))
@@ -87,12 +91,9 @@ layout(std430, set = 0, binding = 15) buffer Capture {
     uint capturePad2;
     Captured captured[];
 };
-// The baseline in the mesh's UV layout, 6 per face: corner UVs (c0, c1), (c2, c3), then the
-// per-vertex tangents at the four corners (xyz).
-layout(std430, set = 0, binding = 16) readonly buffer BaselineFaces { vec4 baselineFaces[]; };
-layout(set = 0, binding = 17) uniform sampler2D baselineHeight;
-layout(set = 0, binding = 18) uniform sampler2D baselineNormal;
-layout(set = 0, binding = 19) uniform sampler2D packedImage; // the packed tiles (R32F or R16F) with TEXELS_IMAGE
+layout(set = 0, binding = 16) uniform sampler2D baselineHeight;
+layout(set = 0, binding = 17) uniform sampler2D baselineNormal;
+layout(set = 0, binding = 18) uniform sampler2D packedImage; // the packed tiles (R32F or R16F) with TEXELS_IMAGE
 
 int packedWidth() {
     return P.counts.z;
@@ -219,7 +220,7 @@ vec2 baselineUV(int face, vec2 uv) {
     if (BASELINE_UV) {
         vec2 du;
         vec2 dv;
-        return dmUvTexcoord(dmFaceUv(baselineFaces[6 * face], baselineFaces[6 * face + 1], uv, du, dv));
+        return dmUvTexcoord(dmFaceUv(uintBitsToFloat(records[6 * face]), uintBitsToFloat(records[6 * face + 1]), uv, du, dv));
     }
     return dmBaselineAtlasUV(vec2(faces[face].chart.xy), uv, P.atlas.z, P.atlas.xy);
 }
@@ -228,7 +229,8 @@ vec2 baselineUV(int face, vec2 uv) {
 vec3 baselineTangent(int face, vec2 uv, vec3 su, vec3 N) {
     if (BASELINE_UV) {
         int i = 6 * face + 2;
-        return dmFaceTangent(baselineFaces[i].xyz, baselineFaces[i + 1].xyz, baselineFaces[i + 2].xyz, baselineFaces[i + 3].xyz, uv, N);
+        return dmFaceTangent(uintBitsToFloat(records[i].xyz), uintBitsToFloat(records[i + 1].xyz), uintBitsToFloat(records[i + 2].xyz),
+                             uintBitsToFloat(records[i + 3].xyz), uv, N);
     }
     return dmTangentFromDerivative(su, N);
 }

@@ -18,6 +18,8 @@ struct SceneSurface {
     BaseSurface base;
     DisplacedSurface surface;
     std::optional<BaselineAtlas> atlas;
+    BaselineLayout bakedLayout = BaselineLayout::Faces; ///< what `atlas` was baked for
+    int bakedTexels = 0;
 
     /// Builds the mesh and tiles of `scene` (sceneMesh, sceneTiles), its surfaces at the
     /// scene's isolation level and auto tolerance, and the baseline atlas if the scene's
@@ -32,10 +34,13 @@ struct SceneSurface {
 
     /// The baseline atlas at the scene's texel density (baselineTexels, or 2^k per face edge)
     /// in the scene's layout (the mesh-UV layout with as many texels, its UVs interpolated
-    /// linearly), baked on first use. The UV layout throws ArgumentError for a mesh without UVs.
+    /// linearly), baked on first use and again when the scene asks for another layout or
+    /// density. The UV layout throws ArgumentError for a mesh without UVs.
     const BaselineAtlas& bake(const Scene& scene) {
-        if (atlas) return *atlas;
         const int n = scene.baselineTexels > 0 ? scene.baselineTexels : 1 << scene.displacement.k;
+        if (atlas && bakedLayout == scene.baselineLayout && bakedTexels == n) return *atlas;
+        bakedLayout = scene.baselineLayout;
+        bakedTexels = n;
         if (scene.baselineLayout == BaselineLayout::MeshUv) {
             const int side = baselineUvSide(base.faceCount(), n);
             atlas = bakeBaselineUv(surface, UvMap(mesh, UvInterpolation::Linear), side, side);

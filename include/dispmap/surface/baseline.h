@@ -27,8 +27,10 @@
 // bilinear UVs); texels outside every chart are filled by `gutter` rounds of dilation (each
 // empty texel next to filled ones takes their mean), as baking tools pad charts so that
 // linear filtering at a chart's border does not read the empty background. The image
-// repeats (the shader's sampler uses repeat addressing, as engines do), so UVs may leave
-// [0, 1]^2 by less than a period, [-1, 2]^2; UDIM sets are refused.
+// repeats (the shader's sampler uses repeat addressing, as engines do): a face's centre must
+// lie in [0, 1]^2, its corners may reach past it (UDIM sets are refused). Where charts overlap
+// (mirrored or stacked shells, or a face reaching past the square onto another chart) the face
+// rasterised last owns the texel, as in any baked map; BaselineAtlas::sharedTexels counts them.
 //
 // Heights: D at the texel's (face, u, v) at the finest level (rho = kFinest), as float. Where a
 // sub-face edge meets a quad edge (a T-junction, TileTopology link with beta = 1/2) the
@@ -107,6 +109,7 @@ struct BaselineAtlas {
     /// MeshUv: per Ptex face four entries, the per-vertex tangents at its corners (xyz, w = 0).
     std::vector<glm::vec4> cornerTangents;
     int gutter = 0; ///< MeshUv: dilation rounds around the charts
+    std::size_t sharedTexels = 0; ///< MeshUv: texels more than one face covers (the last one's values)
 
     /// Bytes of the two textures as stored: 4 (float height) + 4 (RGBA8) per texel.
     std::size_t bytes() const { return heights.size() * sizeof(float) + normals.size(); }
@@ -256,8 +259,9 @@ inline glm::dvec2 baselineTexcoord(const BaselineAtlas& a, int face, double u, d
 /// width x height image of the unit UV square, `gutter` rounds of dilation. `uvs` must
 /// interpolate linearly (UvInterpolation::Linear: what the shader does over each face).
 /// Throws ArgumentError for smooth UVs, a UV map of another mesh, sizes out of [1,
-/// kMaxBaselineAtlasSize], a gutter out of [0, kMaxBaselineGutter], or a face whose UVs leave
-/// [-1, 2]^2 (naming it); propagates what the surface throws.
+/// kMaxBaselineAtlasSize], a gutter out of [0, kMaxBaselineGutter], a UV that is not finite, or
+/// a face whose centre lies outside the UV square (naming it); propagates what the surface
+/// throws.
 inline BaselineAtlas bakeBaselineUv(const DisplacedSurface& surface, const UvMap& uvs, int width, int height, int gutter = 4) {
     const BaseSurface& base = surface.base();
     if (uvs.smooth())
@@ -284,15 +288,18 @@ inline BaselineAtlas bakeBaselineUv(const DisplacedSurface& surface, const UvMap
         const std::array<glm::dvec2, 4>& c = uvs.linearCorners(f);
         a.faceUvs[2 * static_cast<std::size_t>(f)] = glm::vec4(glm::vec2(c[0]), glm::vec2(c[1]));
         a.faceUvs[2 * static_cast<std::size_t>(f) + 1] = glm::vec4(glm::vec2(c[2]), glm::vec2(c[3]));
+        for (const glm::dvec2& uv : c)
+            if (!(std::isfinite(uv.x) && std::isfinite(uv.y)))
+                throw ArgumentError("bakeBaselineUv: ptex face " + std::to_string(f) + " has a UV that is not finite");
         if (base.isHole(f)) {
             faceTiles[static_cast<std::size_t>(f)] = -1;
             continue;
         }
-        for (const glm::dvec2& uv : c)
-            if (!(uv.x >= -1.0 && uv.x <= 2.0 && uv.y >= -1.0 && uv.y <= 2.0))
-                throw ArgumentError("bakeBaselineUv: ptex face " + std::to_string(f) + " has UV (" + std::to_string(uv.x) + ", " +
-                                    std::to_string(uv.y) + ") outside [-1, 2]^2; the mesh-UV baseline is one repeating UV "
-                                    "tile (no UDIM sets)");
+        const glm::dvec2 centre = 0.25 * (c[0] + c[1] + c[2] + c[3]);
+        if (!(centre.x >= 0.0 && centre.x <= 1.0 && centre.y >= 0.0 && centre.y <= 1.0))
+            throw ArgumentError("bakeBaselineUv: ptex face " + std::to_string(f) + " lies outside the UV square (its centre is at (" +
+                                std::to_string(centre.x) + ", " + std::to_string(centre.y) +
+                                ")); the mesh-UV baseline is one repeating UV tile (no UDIM sets)");
     }
     // Per-vertex tangents: each face corner's UV tangent, summed over the corners that share a
     // vertex and a UV, normalised.
@@ -352,16 +359,22 @@ inline BaselineAtlas bakeBaselineUv(const DisplacedSurface& surface, const UvMap
         a.normals[4 * i + 2] = a.normals[4 * i + 3] = 255;
     }
     std::vector<std::uint8_t> covered(texels, 0);
+    std::vector<int> owner(texels, -1);
     // The unit square and its 8 neighbours: the parts of faces outside [0, 1]^2 land where the
     // repeating lookup reads them.
     const auto bakeTexel = [&](int x, int y, int t, double u, double v) {
         const std::size_t at = a.index(x, y);
+        if (owner[at] >= 0 && owner[at] != t && covered[at] == 1) {
+            ++a.sharedTexels;
+            covered[at] = 2; // counted once
+        }
+        owner[at] = t;
         const SurfaceSample<double> s = surface.evaluate<double>(t, u, v, NormalMode::Accurate);
         const glm::dvec3 T = baselineTangent(a, t, u, v, glm::dvec3(0.0), s.baseNormal);
         const glm::dvec3 nts = kern::dmTangentSpaceEncode(s.normal, T, s.baseNormal);
         a.heights[at] = static_cast<float>(s.displacement.x);
         for (int c = 0; c < 3; ++c) a.normals[4 * at + static_cast<std::size_t>(c)] = detail::unormByte(0.5 * nts[c] + 0.5);
-        covered[at] = 1;
+        if (!covered[at]) covered[at] = 1;
     };
     for (int dy = -1; dy <= 1; ++dy)
         for (int dx = -1; dx <= 1; ++dx) rasterizeUvs(uvs, faceTiles, 0, width, height, 4, 0.0, 3, bakeTexel, glm::dvec2(dx, dy));
@@ -405,6 +418,7 @@ inline void checkBaselineLookup(const BaselineAtlas& a, int face, double u, doub
 /// repeat addressing does it (exact weights; hardware rounds them to its sub-texel
 /// precision): fetch(index) is one texel's value.
 template <typename Fetch> auto filterLinear(const BaselineAtlas& a, glm::dvec2 tc, Fetch fetch) {
+    if (!(std::isfinite(tc.x) && std::isfinite(tc.y))) throw ArgumentError("baseline lookup: the texture coordinate is not finite");
     const double x = tc.x * a.width - 0.5, y = tc.y * a.height - 0.5;
     const double fx0 = std::floor(x), fy0 = std::floor(y);
     const double fx = x - fx0, fy = y - fy0;

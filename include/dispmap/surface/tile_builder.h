@@ -118,9 +118,12 @@ inline std::vector<int> uniformTileSizes(const ControlMesh& mesh, int k) {
 /// prefiltered), reproduce every fine sample within `tolerance` when interpolated bilinearly
 /// between their centres (clamped at the tile's border). Returns k; `fine` is replaced by the
 /// samples at k. Sizes only grow the error monotonically in practice, so the search stops at
-/// the first k that fails.
+/// the first k that fails. Throws ArgumentError if `fine` does not hold 4^kMax samples.
 inline int coarsestTileWithin(std::vector<double>& fine, int kMax, double tolerance, int kMin = kMinTileLog2) {
     kMin = std::max(kMin, 1); // two samples a side at least (the interpolation below)
+    if (kMax < kMinTileLog2 || kMax > kMaxTileLog2 || fine.size() != std::size_t{1} << (2 * kMax))
+        throw ArgumentError("coarsestTileWithin: " + std::to_string(fine.size()) + " samples for a tile of 2^" + std::to_string(kMax) +
+                            " x 2^" + std::to_string(kMax));
     const int sf = 1 << kMax;
     int chosen = kMax;
     std::vector<double> best = fine;
@@ -142,7 +145,7 @@ inline int coarsestTileWithin(std::vector<double>& fine, int kMax, double tolera
                 const double v = (1 - fy) * ((1 - fx) * at(x0, y0) + fx * at(x1, y0)) + fy * ((1 - fx) * at(x0, y1) + fx * at(x1, y1));
                 err = std::max(err, std::abs(v - fine[static_cast<std::size_t>(j * sf + i)]));
             }
-        if (err > tolerance) break;
+        if (!(err <= tolerance)) break; // NaN samples never pass
         chosen = kk;
         best = std::move(coarse);
     }
