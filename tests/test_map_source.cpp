@@ -461,6 +461,12 @@ TEST_CASE("tile sizes from a fit-error bound: flat parts get small tiles, the bo
     CHECK_THROWS_WITH(errorTileSizes(spot, spotUvs, brick, 1, 5, 0.0, o), Contains("tolerance"));
     CHECK_THROWS_WITH(errorTileSizes(spot, spotUvs, brick, 1, 5, std::nan(""), o), Contains("tolerance"));
     CHECK_THROWS_WITH(errorTileSizes(spot, spotUvs, brick, 6, 5, 0.1, o), Contains("out of range"));
+    // A NaN sample never lets a tile shrink; a sample count that does not fit is refused.
+    std::vector<double> withNan(16, 0.5);
+    withNan[5] = std::nan("");
+    CHECK(coarsestTileWithin(withNan, 2, 1.0, 1) == 2);
+    std::vector<double> wrongCount(15, 0.5);
+    CHECK_THROWS_WITH(coarsestTileWithin(wrongCount, 2, 1.0, 1), Contains("15 samples"));
 }
 
 TEST_CASE("D is continuous across UV seams although the map is not", "[mapsource]") {

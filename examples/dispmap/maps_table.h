@@ -8,7 +8,7 @@ namespace dispmap::figures {
 
 struct MapsTableArgs {
     std::string dataDir; ///< spot_control_mesh.obj and skimage_brick.png
-    bool quick = false;  ///< a 512 map for the formats instead of 2048, one frame a GPU row (CI)
+    bool quick = false;  ///< a 512 map for the formats instead of 2048, one error-bound row, one frame a GPU row (CI)
     std::string device;  ///< Vulkan device for the GPU rows (name substring; "": the default)
 };
 

@@ -398,8 +398,9 @@ inline std::vector<int> texelTileSizes(const ControlMesh& mesh, const UvMap& uvs
 /// stretches of the map get small tiles, detail keeps 2^kMax. Non-quads' sub-faces take
 /// kMax - 1 and the quads pinned by them kMax (the builder's T-junction rule, as
 /// texelTileSizes). Then neighbours are balanced to one level apart at most (raising the
-/// smaller), since a tile's overlap ring comes from its neighbours' mips. Throws ArgumentError for sizes out of range or a tolerance that is not
-/// finite and > 0; propagates what mapSource throws.
+/// smaller), since a tile's overlap ring comes from its neighbours' mips. Throws
+/// ArgumentError for sizes out of range or a tolerance that is not finite and > 0; propagates
+/// what mapSource throws.
 inline std::vector<int> errorTileSizes(const ControlMesh& mesh, std::shared_ptr<const UvMap> uvs, const HeightMaps& maps, int kMin,
                                        int kMax, double tolerance, const MapSourceOptions& options = {}) {
     std::vector<int> out = uniformTileSizes(mesh, kMax); // checks kMax, and sub-faces take kMax - 1

@@ -143,7 +143,8 @@ inline int coarsestTileWithin(std::vector<double>& fine, int kMax, double tolera
                 const double fx = x - x0, fy = y - y0;
                 const auto at = [&](int a, int b) { return coarse[static_cast<std::size_t>(b * s + a)]; };
                 const double v = (1 - fy) * ((1 - fx) * at(x0, y0) + fx * at(x1, y0)) + fy * ((1 - fx) * at(x0, y1) + fx * at(x1, y1));
-                err = std::max(err, std::abs(v - fine[static_cast<std::size_t>(j * sf + i)]));
+                const double d = std::abs(v - fine[static_cast<std::size_t>(j * sf + i)]);
+                if (!(d <= err)) err = d; // a NaN sample makes err NaN
             }
         if (!(err <= tolerance)) break; // NaN samples never pass
         chosen = kk;
