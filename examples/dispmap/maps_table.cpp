@@ -65,6 +65,16 @@ double wavy(double s, double t) {
 
 } // namespace
 
+TileSet spotBrickTiles(const ControlMesh& spot, std::shared_ptr<const UvMap> uvs, const HeightMaps& brick, int k) {
+    const std::vector<int> sizes = uniformTileSizes(spot, k);
+    MapSourceOptions o;
+    o.wrap = true;
+    o.filter = MapFilter::Box;
+    o.scale = 0.03;
+    o.midLevel = 0.5;
+    return buildTiles(spot, sizes, mapSource(std::move(uvs), brick, sizes, o));
+}
+
 void printMapsTable(std::ostream& out, const MapsTableArgs& a) {
     const ControlMesh spot = ControlMesh::fromObjFile(a.dataDir + "/spot_control_mesh.obj");
     const HeightImage brickImage = readHeightImage(a.dataDir + "/skimage_brick.png");
@@ -240,13 +250,7 @@ void printMapsTable(std::ostream& out, const MapsTableArgs& a) {
         vulkan::DeviceOptions dopt;
         dopt.device = a.device;
         vulkan::Context ctx(dopt);
-        const std::vector<int> k = uniformTileSizes(spot, 5);
-        MapSourceOptions o;
-        o.wrap = true;
-        o.filter = MapFilter::Box;
-        o.scale = 0.03;
-        o.midLevel = 0.5;
-        const TileSet tiles = buildTiles(spot, k, mapSource(linear, brick, k, o));
+        const TileSet tiles = spotBrickTiles(spot, linear, brick, 5);
         const BaseSurface base(spot);
         const DisplacedSurface surface(base, tiles);
         const PackedTiles full = tiles.pack();

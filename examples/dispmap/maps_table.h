@@ -1,8 +1,14 @@
 #pragma once
 // `dispmap maps --table`: reading, placing and prefiltering displacement maps, with the cost
 // of each choice (docs/figures.md, "Displacement maps").
+#include <memory>
 #include <ostream>
 #include <string>
+
+#include "dispmap/core/height_image.h"
+#include "dispmap/core/tileset.h"
+#include "dispmap/surface/mesh.h"
+#include "dispmap/surface/uv_map.h"
 
 namespace dispmap::figures {
 
@@ -13,5 +19,9 @@ struct MapsTableArgs {
 };
 
 void printMapsTable(std::ostream& out, const MapsTableArgs& a);
+
+/// The brick map on Spot as the rendered rows show it: 2^k tiles (sub-faces 2^(k-1)), box
+/// filter, wrapping, mid-level 0.5, scale 0.03 (maps --table's GPU rows, maps --seams).
+TileSet spotBrickTiles(const ControlMesh& spot, std::shared_ptr<const UvMap> uvs, const HeightMaps& brick, int k);
 
 } // namespace dispmap::figures

@@ -2,6 +2,7 @@
 // baseline at UV seams"): the traditional method on the mesh's own UV layout cracks and shows
 // shading seams along UV seams; its seam-free per-face atlas and dispmap's tiles do not.
 #include "uv_seams_table.h"
+#include "maps_table.h"
 
 #include <algorithm>
 #include <chrono>
@@ -56,13 +57,7 @@ void printUvSeamsTable(std::ostream& out, const UvSeamsTableArgs& a) {
     brick.images[0] = std::make_shared<const HeightImage>(readHeightImage(a.dataDir + "/skimage_brick.png"));
     const auto linear = std::make_shared<const UvMap>(spot, UvInterpolation::Linear);
     const int k = a.quick ? 4 : 5, n = 1 << k;
-    const std::vector<int> sizes = uniformTileSizes(spot, k);
-    MapSourceOptions o;
-    o.wrap = true;
-    o.filter = MapFilter::Box;
-    o.scale = 0.03;
-    o.midLevel = 0.5;
-    const TileSet tiles = buildTiles(spot, sizes, mapSource(linear, brick, sizes, o));
+    const TileSet tiles = spotBrickTiles(spot, linear, brick, k);
     const BaseSurface base(spot);
     const DisplacedSurface surface(base, tiles);
     const int faces = base.faceCount();
