@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "dispmap/surface/displaced_surface.h"
+#include "dispmap/core/parallel.h"
 #include "dispmap/core/file_io.h"
 #include "dispmap/io/image_files.h"
 #include "dispmap/io/png.h"
@@ -45,6 +46,7 @@
 #include "bake.h"
 #include "maps_table.h"
 #include "uv_seams_table.h"
+#include "cores_table.h"
 #include "gltf_export.h"
 #include "seams_table.h"
 
@@ -532,6 +534,12 @@ int mesoCommand(const MesoArgs& a) {
 int main(int argc, char** argv) {
     CLI::App app{"dispmap: analytic displacement mapping on Catmull-Clark surfaces"};
     app.require_subcommand(1);
+    // One thread count for every parallel stage of every command (the library's entry points
+    // take theirs in their options; 0 there means what this allows).
+    int threads = 0;
+    app.add_option("--threads", threads, "threads of every parallel stage (0: all cores; 1: one, the calling thread); also "
+                                         "accepted after the command");
+    app.fallthrough();
     bool quick = false;
     auto* demoCmd = app.add_subcommand("demo", "build the embedded default tile set and print its figures");
     demoCmd->add_flag("--quick", quick, "short benchmark runs");
@@ -588,7 +596,11 @@ int main(int argc, char** argv) {
     benchCmd->add_option("--seams-csv", seamsCsv, "also write the seams table as CSV");
     std::string only;
     benchCmd->add_option("--only", only, "print only this table, no timings")
-        ->check(CLI::IsMember({"mips", "normals", "isolation", "swim", "tessellation", "edit", "seams", "render"}));
+        ->check(CLI::IsMember({"mips", "normals", "isolation", "swim", "tessellation", "edit", "seams", "render", "cores"}));
+    figures::CoresTableArgs cta;
+    cta.dataDir = DISPMAP_EXAMPLE_DATA;
+    benchCmd->add_flag("--quick", cta.quick, "with --only cores: smaller tiles and factors, one cone set (CI)");
+    benchCmd->add_option("--cores-csv", cta.csv, "also write the all-cores table as CSV");
     benchCmd->add_option("--swim-csv", swimCsv, "also write the swimming figure as CSV");
     benchCmd->add_option("--isolation-csv", isolationCsv, "also write the isolation-level table as CSV");
     benchCmd->add_option("--normals-csv", normalsCsv, "also write the normals table as CSV");
@@ -675,6 +687,9 @@ int main(int argc, char** argv) {
     bakeCmd->add_option("--skeleton-dir", ba.skeletonDir, "with --table: folder of their skeletons (<stem>.json)");
     CLI11_PARSE(app, argc, argv);
     try {
+        checkThreads(threads, "--threads");
+        std::optional<tbb::global_control> threadLimit;
+        if (threads > 0) threadLimit.emplace(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
         if (*demoCmd) return demo(quick);
         if (*tilesCmd) return tiles(ta, tilesOutput, mapOutput, mapSize);
         if (*evalCmd) return eval(ea);
@@ -712,6 +727,7 @@ int main(int argc, char** argv) {
             table("edit", [&] { figures::printEditTable(std::cout, editCsv); });
             table("seams", [&] { figures::printSeamsTable(std::cout, seamsCsv); });
             table("render", [&] { figures::printRenderTable(std::cout, {renderImages, renderCsv, renderFrames, true, ""}); });
+            table("cores", [&] { figures::printCoresTable(std::cout, cta); });
             if (!only.empty()) return 0;
             return figures::runBenchmarks(benchCmd->remaining());
         }

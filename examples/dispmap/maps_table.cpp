@@ -65,14 +65,16 @@ double wavy(double s, double t) {
 
 } // namespace
 
-TileSet spotBrickTiles(const ControlMesh& spot, std::shared_ptr<const UvMap> uvs, const HeightMaps& brick, int k) {
+TileSet spotBrickTiles(const ControlMesh& spot, std::shared_ptr<const UvMap> uvs, const HeightMaps& brick, int k, int threads) {
     const std::vector<int> sizes = uniformTileSizes(spot, k);
     MapSourceOptions o;
     o.wrap = true;
     o.filter = MapFilter::Box;
     o.scale = 0.03;
     o.midLevel = 0.5;
-    return buildTiles(spot, sizes, mapSource(std::move(uvs), brick, sizes, o));
+    BuildOptions bo;
+    bo.threads = threads;
+    return buildTiles(spot, sizes, mapSource(std::move(uvs), brick, sizes, o), bo);
 }
 
 void printMapsTable(std::ostream& out, const MapsTableArgs& a) {

@@ -21,7 +21,8 @@ struct MapsTableArgs {
 void printMapsTable(std::ostream& out, const MapsTableArgs& a);
 
 /// The brick map on Spot as the rendered rows show it: 2^k tiles (sub-faces 2^(k-1)), box
-/// filter, wrapping, mid-level 0.5, scale 0.03 (maps --table's GPU rows, maps --seams).
-TileSet spotBrickTiles(const ControlMesh& spot, std::shared_ptr<const UvMap> uvs, const HeightMaps& brick, int k);
+/// filter, wrapping, mid-level 0.5, scale 0.03 (maps --table's GPU rows, maps --seams), built
+/// on `threads` threads (0: all cores).
+TileSet spotBrickTiles(const ControlMesh& spot, std::shared_ptr<const UvMap> uvs, const HeightMaps& brick, int k, int threads = 0);
 
 } // namespace dispmap::figures

@@ -193,6 +193,29 @@ std::ostream& pictureNote(std::ostream& out, const std::string& path, const std:
 
 } // namespace
 
+std::map<std::string, MesoMaps> buildConeSetMaps(const MesoHeightField& field, const std::vector<std::string>& coneSets, int threads) {
+    std::map<std::string, MesoMaps> maps;
+    const MesoMaps* shared = nullptr;
+    for (const std::string& cones : coneSets) {
+        MesoMapOptions o;
+        o.cones = parseConeSet(cones);
+        o.threads = threads;
+        o.distance = o.quadrics = shared == nullptr;
+        MesoMaps m = buildMesoMaps(field, o);
+        if (shared) {
+            m.distance = shared->distance;
+            m.quadrics = shared->quadrics;
+        }
+        shared = &maps.emplace(cones, std::move(m)).first->second;
+    }
+    return maps;
+}
+
+const std::vector<std::string>& tableConeSets() {
+    static const std::vector<std::string> sets{"isotropic", "2x1", "4x1", "8x1", "2x2", "4x2", "8x2"};
+    return sets;
+}
+
 std::vector<MesoScene> mesoScenes(const std::string& dataDir) {
     std::vector<MesoScene> s;
     {
@@ -295,12 +318,7 @@ void printMesoTable(std::ostream& out, const MesoTableArgs& args) {
         const MesoHeightField& hf = scene.field;
         const auto t0 = std::chrono::steady_clock::now();
         // One map set per cone set; the distance map and quadrics are shared.
-        std::map<std::string, MesoMaps> maps;
-        for (const std::string cones : {"isotropic", "2x1", "4x1", "8x1", "2x2", "4x2", "8x2"}) {
-            MesoMapOptions o;
-            o.cones = parseConeSet(cones);
-            maps.emplace(cones, buildMesoMaps(hf, o));
-        }
+        const std::map<std::string, MesoMaps> maps = buildConeSetMaps(hf, tableConeSets());
         const double buildS = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         const MesoCamera& cam = scene.camera;
         const std::vector<Pixel> px = pixels(cam, hf.layers, [&](const glm::dvec3& o, const glm::dvec3& d) { return marchReference<double>(hf, o, d); });

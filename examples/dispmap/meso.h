@@ -4,6 +4,7 @@
 // the iteration pictures (their Figure 7), and `dispmap meso`.
 #include <functional>
 #include <ostream>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -31,6 +32,14 @@ struct MesoScene {
 /// "bricks" (tests/data/skimage_brick.png, 128 x 128 x 16) and "grating" (walls one texel wide
 /// and one-texel beads, 64 x 64 x 16: the thin features of Donnelly's Fig. 8-6).
 std::vector<MesoScene> mesoScenes(const std::string& dataDir);
+
+/// The maps of `field` for each cone set named (parseConeSet), keyed by the name: the distance
+/// map and the quadrics, which do not depend on the cones, are built once and copied into
+/// every set. `threads` as MesoMapOptions::threads.
+std::map<std::string, MesoMaps> buildConeSetMaps(const MesoHeightField& field, const std::vector<std::string>& coneSets, int threads = 0);
+
+/// The seven cone sets of the table: isotropic, 2x1, 4x1, 8x1, 2x2, 4x2, 8x2.
+const std::vector<std::string>& tableConeSets();
 
 /// One row of the table: a technique with a label.
 struct MesoRow {

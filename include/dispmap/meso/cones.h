@@ -9,6 +9,9 @@ namespace dispmap {
 /// m x n cones per hemisphere (kernels/meso.h, dmConeIndex): m azimuth sectors in {1, 2, 4, 8},
 /// n elevation bands in {1, 2}; view cones (downwards) always, shadow cones (upwards) when
 /// `shadow`; `isotropic`: one cone of every direction (m, n ignored).
+/// The most cones a set has (8 x 2 with shadow cones).
+inline constexpr int kMaxCones = 32;
+
 struct ConeSet {
     int m = 4, n = 1;
     bool shadow = false;

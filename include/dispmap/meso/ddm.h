@@ -3,6 +3,10 @@
 // distance to the nearest solid point reachable from ANY point of the voxel within the cone
 // (0 where the solid touches the voxel); the isotropic conservative map is the case of one
 // cone holding every direction. Min-filtered coarser levels keep the bound. GLM only.
+#include <array>
+#include <bit>
+#include <cstdint>
+
 #include "dispmap/meso/cones.h"
 #include "dispmap/meso/height_field.h"
 
@@ -32,40 +36,71 @@ namespace detail {
 struct Box {
     glm::dvec3 lo, hi;
 };
-inline double wrapAngle(double a) {
+// A direction cone as the box test needs it: no angle is computed per box, only products and
+// comparisons (as the marcher's dmConeIndex). The azimuth sector runs counter-clockwise from
+// the unit vector a0 to a1 (at most half a turn, or the whole circle); the elevation band's
+// bounds, widened by the slack, as (cos, sin) pairs, each tested only where it can reject.
+struct ConeTest {
+    bool allAzimuths = false;
+    glm::dvec2 a0{1, 0}, a1{1, 0};
+    bool testLo = false, testHi = false;
+    glm::dvec2 lo{1, 0}, hi{1, 0}; // (cos, sin) of el[0] - slack and el[1] + slack
+};
+inline constexpr double kConeSlack = 1e-6; // radians, > float rounding of dmConeIndex's tests
+inline ConeTest coneTest(const ConeSet& cones, int c) {
     constexpr double pi = 3.14159265358979323846;
-    while (a <= -pi) a += 2 * pi;
-    while (a > pi) a -= 2 * pi;
-    return a;
+    double az[2], el[2];
+    cones.range(c, az, el);
+    ConeTest t;
+    t.allAzimuths = az[1] - az[0] >= 2 * pi - kConeSlack;
+    t.a0 = {std::cos(az[0]), std::sin(az[0])};
+    t.a1 = {std::cos(az[1]), std::sin(az[1])};
+    const double e0 = el[0] - kConeSlack, e1 = el[1] + kConeSlack;
+    t.testLo = e0 > -pi / 2;
+    t.testHi = e1 < pi / 2;
+    t.lo = {std::cos(e0), std::sin(e0)};
+    t.hi = {std::cos(e1), std::sin(e1)};
+    return t;
 }
-// Whether some direction x / |x|, x in the box D (not containing 0), can lie in the cone
-// [az] x [el]: the box's elevation and azimuth intervals (bounds of the true sets) overlap
-// the cone's. Conservative: it may say yes for a box that misses the cone, never no for one
-// that meets it.
-inline bool boxMeetsCone(const Box& D, const double az[2], const double el[2]) {
-    constexpr double pi = 3.14159265358979323846, slack = 1e-6; // > float rounding of dmConeIndex's tests
+inline double cross2(const glm::dvec2& a, const glm::dvec2& b) { return a.x * b.y - a.y * b.x; }
+// Whether direction d lies on the counter-clockwise arc from a to b (at most half a turn),
+// within kConeSlack radians at either end.
+inline bool onArc(const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& d) {
+    const double ld = glm::length(d);
+    return cross2(a, d) >= -kConeSlack * glm::length(a) * ld && cross2(d, b) >= -kConeSlack * ld * glm::length(b);
+}
+// Whether some direction x / |x|, x in the box D (not containing 0), can lie in the cone: the
+// box's elevation interval (from the nearest and farthest horizontal distances) overlaps the
+// cone's band, and the box's azimuth arc (between its extreme corners) overlaps the cone's
+// sector. Conservative: it may say yes for a box that misses the cone, never no for one that
+// meets it (the arcs and band are widened by kConeSlack). atan2(z, rho) < e is tested as
+// z cos e - rho sin e < 0, which holds for rho >= 0 and |e| < pi/2.
+inline bool boxMeetsCone(const Box& D, const ConeTest& cone) {
     const double cx = std::clamp(0.0, D.lo.x, D.hi.x), cy = std::clamp(0.0, D.lo.y, D.hi.y);
     const double rhoMin = std::sqrt(cx * cx + cy * cy);
     const double mx = std::max(std::abs(D.lo.x), std::abs(D.hi.x)), my = std::max(std::abs(D.lo.y), std::abs(D.hi.y));
     const double rhoMax = std::sqrt(mx * mx + my * my);
-    const double elMax = D.hi.z >= 0 ? std::atan2(D.hi.z, rhoMin) : std::atan2(D.hi.z, rhoMax);
-    const double elMin = D.lo.z <= 0 ? std::atan2(D.lo.z, rhoMin) : std::atan2(D.lo.z, rhoMax);
-    if (elMax < el[0] - slack || elMin > el[1] + slack) return false;
-    if (rhoMin == 0 || az[1] - az[0] >= 2 * pi - slack) return true;
-    const double centre = std::atan2(0.5 * (D.lo.y + D.hi.y), 0.5 * (D.lo.x + D.hi.x));
-    double lo = 0, hi = 0;
-    const double xs[2] = {D.lo.x, D.hi.x}, ys[2] = {D.lo.y, D.hi.y};
-    for (double x : xs)
-        for (double y : ys) {
-            const double delta = wrapAngle(std::atan2(y, x) - centre);
-            lo = std::min(lo, delta);
-            hi = std::max(hi, delta);
-        }
-    for (double shift : {-2 * pi, 0.0, 2 * pi}) {
-        const double a = centre + lo + shift, b = centre + hi + shift;
-        if (a <= az[1] + slack && b >= az[0] - slack) return true;
+    // (rho, z) = (0, 0) is elevation 0, as atan2(0, 0): a box that touches the axis only at
+    // z = 0 (the solid just below or above the voxel) has no direction up or down the axis.
+    if (cone.testLo) { // the box's highest elevation below the band?
+        const double rho = D.hi.z > 0 ? rhoMin : D.hi.z < 0 ? rhoMax : 1.0;
+        if (D.hi.z * cone.lo.x - rho * cone.lo.y < 0) return false;
     }
-    return false;
+    if (cone.testHi) { // the box's lowest elevation above the band?
+        const double rho = D.lo.z < 0 ? rhoMin : D.lo.z > 0 ? rhoMax : 1.0;
+        if (D.lo.z * cone.hi.x - rho * cone.hi.y > 0) return false;
+    }
+    if (rhoMin == 0 || cone.allAzimuths) return true;
+    // The box's arc: from its clockwise-most corner p to its counter-clockwise-most q (less
+    // than half a turn: the box does not contain the axis).
+    const glm::dvec2 corner[4] = {{D.lo.x, D.lo.y}, {D.hi.x, D.lo.y}, {D.hi.x, D.hi.y}, {D.lo.x, D.hi.y}};
+    glm::dvec2 p = corner[0], q = corner[0];
+    for (int i = 1; i < 4; ++i) {
+        if (cross2(p, corner[i]) < 0) p = corner[i];
+        if (cross2(q, corner[i]) > 0) q = corner[i];
+    }
+    // Two arcs of at most half a turn each meet iff one holds the other's start.
+    return onArc(cone.a0, cone.a1, p) || onArc(p, q, cone.a0);
 }
 inline double boxDistance(const Box& D) {
     const glm::dvec3 c = glm::clamp(glm::dvec3(0.0), D.lo, D.hi);
@@ -78,9 +113,12 @@ inline double boxDistance(const Box& D) {
 /// height of the bilinear patch over it (at one of its corners); for each voxel V and cone C
 /// the map stores the smallest distance |x| over the difference boxes D = box - V whose
 /// directions may lie in C (detail::boxMeetsCone), found by a search in rings of columns
-/// that stops when the ring is farther than the best. Cap default: `layers` voxels.
-inline DirectionalDistanceMap buildDdm(const MesoHeightField& hf, const ConeSet& cones, int subcells = 2, float cap = 0) {
+/// that stops when the ring is farther than the best. Cap default: `layers` voxels. Rows of
+/// voxels on `threads` threads (core/parallel.h; the same map for every count).
+inline DirectionalDistanceMap buildDdm(const MesoHeightField& hf, const ConeSet& cones, int subcells = 2, float cap = 0,
+                                      int threads = 0) {
     detail::checkMesoSize("directional distance map", hf.width, hf.height, hf.layers);
+    checkThreads(threads, "directional distance map");
     cones.validate();
     if (subcells < 1 || subcells > 8) throw ArgumentError("directional distance map: subcells " + std::to_string(subcells) + " not in 1..8");
     if (!(cap >= 0) || !std::isfinite(cap)) throw ArgumentError("directional distance map: cap must be finite and >= 0");
@@ -114,41 +152,66 @@ inline DirectionalDistanceMap buildDdm(const MesoHeightField& hf, const ConeSet&
         }
     const double bottom = -4.0 * hf.layers - 1.0;
     const int C = cones.count();
-    detail::parallelLayers(hf.layers, [&](int k) {
-        for (int c = 0; c < C; ++c) {
-            double az[2], el[2];
-            cones.range(c, az, el);
-            for (int j = 0; j < hf.height; ++j)
-                for (int i = 0; i < hf.width; ++i) {
-                    if (k + 1 <= cellMin[static_cast<std::size_t>(j * hf.width + i)]) {
-                        m.d[m.index(c, i, j, k)] = 0; // inside the solid
-                        continue;
+    std::vector<detail::ConeTest> tests;
+    for (int c = 0; c < C; ++c) tests.push_back(detail::coneTest(cones, c));
+    // One row of voxels (layer, row) a task: each voxel is independent. All cones of a voxel
+    // share one search: the rings go on while any cone's best may still improve, every box's
+    // distance is computed once and tested against the cones it could still improve. Each
+    // cone ends with the smallest distance over the boxes that may meet it, as a search of its
+    // own would (boxes are only skipped when they cannot beat the cone's best).
+    detail::parallelRows(hf.layers * hf.height, threads, [&](int row) {
+        const int j = row % hf.height, k = row / hf.height;
+        std::array<double, kMaxCones> best;
+        for (int i = 0; i < hf.width; ++i) {
+            if (k + 1 <= cellMin[static_cast<std::size_t>(j * hf.width + i)]) {
+                for (int c = 0; c < C; ++c) m.d[m.index(c, i, j, k)] = 0; // inside the solid
+                continue;
+            }
+            best.fill(m.cap);
+            double worst = m.cap; // the largest best: rings farther than it improve no cone
+            const int maxRing = static_cast<int>(std::ceil(m.cap)) + 1;
+            const auto visit = [&](int di, int dj) {
+                const int ci = i + di, cj = j + dj;
+                const std::size_t cell = static_cast<std::size_t>(detail::wrapIndex(cj, hf.height) * hf.width + detail::wrapIndex(ci, hf.width));
+                const detail::Box cellBox{{ci - (i + 1.0), cj - (j + 1.0), bottom - (k + 1.0)}, {ci + 1.0 - i, cj + 1.0 - j, cellTop[cell] - k}};
+                const double cellDist = detail::boxDistance(cellBox);
+                if (cellDist >= worst) return;
+                std::uint32_t open = 0; // the cones this column may still improve
+                for (int c = 0; c < C; ++c)
+                    if (cellDist < best[static_cast<std::size_t>(c)] && detail::boxMeetsCone(cellBox, tests[static_cast<std::size_t>(c)]))
+                        open |= 1u << c;
+                if (open == 0) return;
+                for (int b = 0; b < S; ++b)
+                    for (int a = 0; a < S; ++a) {
+                        const double x0 = ci + double(a) / S, y0 = cj + double(b) / S;
+                        const detail::Box D{{x0 - (i + 1.0), y0 - (j + 1.0), bottom - (k + 1.0)},
+                                            {x0 + 1.0 / S - i, y0 + 1.0 / S - j,
+                                             subTop[cell * static_cast<std::size_t>(S * S) + static_cast<std::size_t>(b * S + a)] - k}};
+                        const double dist = detail::boxDistance(D);
+                        for (std::uint32_t rest = open; rest != 0; rest &= rest - 1) {
+                            const int c = std::countr_zero(rest);
+                            if (dist < best[static_cast<std::size_t>(c)] && detail::boxMeetsCone(D, tests[static_cast<std::size_t>(c)]))
+                                best[static_cast<std::size_t>(c)] = dist;
+                        }
                     }
-                    double best = m.cap;
-                    const int maxRing = static_cast<int>(std::ceil(best)) + 1;
-                    for (int r = 0; r <= maxRing && r - 1 < best; ++r) {
-                        for (int dj = -r; dj <= r; ++dj)
-                            for (int di = -r; di <= r; ++di) {
-                                if (std::max(std::abs(di), std::abs(dj)) != r) continue;
-                                const int ci = i + di, cj = j + dj;
-                                const std::size_t cell = static_cast<std::size_t>(detail::wrapIndex(cj, hf.height) * hf.width +
-                                                                                  detail::wrapIndex(ci, hf.width));
-                                const detail::Box cellBox{{ci - (i + 1.0), cj - (j + 1.0), bottom - (k + 1.0)},
-                                                          {ci + 1.0 - i, cj + 1.0 - j, cellTop[cell] - k}};
-                                if (detail::boxDistance(cellBox) >= best || !detail::boxMeetsCone(cellBox, az, el)) continue;
-                                for (int b = 0; b < S; ++b)
-                                    for (int a = 0; a < S; ++a) {
-                                        const double x0 = ci + double(a) / S, y0 = cj + double(b) / S;
-                                        const detail::Box D{{x0 - (i + 1.0), y0 - (j + 1.0), bottom - (k + 1.0)},
-                                                            {x0 + 1.0 / S - i, y0 + 1.0 / S - j,
-                                                             subTop[cell * static_cast<std::size_t>(S * S) + static_cast<std::size_t>(b * S + a)] - k}};
-                                        const double dist = detail::boxDistance(D);
-                                        if (dist < best && detail::boxMeetsCone(D, az, el)) best = dist;
-                                    }
-                            }
-                    }
-                    m.d[m.index(c, i, j, k)] = detail::floatBelow(best);
+                worst = *std::max_element(best.begin(), best.begin() + C);
+            };
+            for (int r = 0; r <= maxRing && r - 1 < worst; ++r) {
+                if (r == 0) {
+                    visit(0, 0);
+                    continue;
                 }
+                // The ring's perimeter: the rows dj = -r and r, then the columns di = -r and r between them.
+                for (int d = -r; d <= r; ++d) {
+                    visit(d, -r);
+                    visit(d, r);
+                }
+                for (int d = -r + 1; d <= r - 1; ++d) {
+                    visit(-r, d);
+                    visit(r, d);
+                }
+            }
+            for (int c = 0; c < C; ++c) m.d[m.index(c, i, j, k)] = detail::floatBelow(best[static_cast<std::size_t>(c)]);
         }
     });
     return m;

@@ -30,9 +30,11 @@ struct DistanceMap {
 };
 
 /// Per layer: g(x, y) = (max(0, z - H(x, y)) S)^2 on the S-times finer grid, its 2D transform
-/// (O(S^2 width height layers)), the samples at the texel grid points, divided by S.
-inline DistanceMap buildDistanceMap(const MesoHeightField& hf, int subsamples = 4) {
+/// (O(S^2 width height layers)), the samples at the texel grid points, divided by S. Layers on
+/// `threads` threads (core/parallel.h; the same map for every count).
+inline DistanceMap buildDistanceMap(const MesoHeightField& hf, int subsamples = 4, int threads = 0) {
     detail::checkMesoSize("distance map", hf.width, hf.height, hf.layers);
+    checkThreads(threads, "distance map");
     if (subsamples < 1 || subsamples > 16) throw ArgumentError("distance map: subsamples " + std::to_string(subsamples) + " not in 1..16");
     DistanceMap m;
     m.width = hf.width;
@@ -47,7 +49,7 @@ inline DistanceMap buildDistanceMap(const MesoHeightField& hf, int subsamples = 
             H[static_cast<std::size_t>(y) * static_cast<std::size_t>(fw) + static_cast<std::size_t>(x)] =
                 kern::dmBilerp(glm::dvec4(hf.cell(x / S, y / S)), glm::dvec2(double(x % S) / S, double(y % S) / S));
     m.d.resize(slice * static_cast<std::size_t>(hf.layers));
-    detail::parallelLayers(hf.layers, [&](int k) {
+    detail::parallelRows(hf.layers, threads, [&](int k) {
         const double z = k + 0.5;
         std::vector<double> g(H.size()), air(H.size());
         for (std::size_t i = 0; i < g.size(); ++i) {

@@ -13,12 +13,12 @@
 #include <cstring>
 #include <limits>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include <glm/glm.hpp>
 
 #include "dispmap/core/error.h"
+#include "dispmap/core/parallel.h"
 #include "dispmap/kernels/meso.h"
 
 namespace dispmap {
@@ -32,18 +32,10 @@ inline int wrapIndex(int i, int n) {
     const int r = i % n;
     return r < 0 ? r + n : r;
 }
-// Runs body(z) for z in [0, n) on up to two threads (the machines here have two cores).
-template <class Body> void parallelLayers(int n, const Body& body) {
-    const int threads = std::max(1, std::min(2, static_cast<int>(std::thread::hardware_concurrency())));
-    if (threads == 1 || n < 2) {
-        for (int z = 0; z < n; ++z) body(z);
-        return;
-    }
-    std::thread other([&] {
-        for (int z = 1; z < n; z += 2) body(z);
-    });
-    for (int z = 0; z < n; z += 2) body(z);
-    other.join();
+// Runs body(i) for i in [0, n) on `threads` threads (core/parallel.h), one index a task: the
+// builders give each task a layer or a row of voxels, which only it writes.
+template <class Body> void parallelRows(int n, int threads, const Body& body) {
+    Parallel(threads).each(static_cast<std::size_t>(std::max(n, 0)), 1, [&](std::size_t i) { body(static_cast<int>(i)); });
 }
 // The largest float <= x (x >= 0): a bound stays a bound when it is stored as a float.
 inline float floatBelow(double x) {

@@ -194,6 +194,7 @@ struct MesoMapOptions {
     int block = 4;                    ///< compression block size (must divide the sizes)
     int distanceSubsamples = 4;       ///< Donnelly's map: column-model samples per texel
     bool distance = true, ddm = true, quadrics = true;
+    int threads = 0; ///< threads of the map builders (core/parallel.h; the same maps for every count)
 };
 struct MesoMaps {
     MesoHeightField field;
@@ -206,14 +207,14 @@ inline MesoMaps buildMesoMaps(const MesoHeightField& field, const MesoMapOptions
     MesoMaps m;
     m.field = field;
     if (options.distance) {
-        m.distance = buildDistanceMap(field, options.distanceSubsamples);
+        m.distance = buildDistanceMap(field, options.distanceSubsamples, options.threads);
     } else {
         m.distance.width = field.width;
         m.distance.height = field.height;
         m.distance.layers = field.layers;
     }
     if (options.ddm) {
-        const DirectionalDistanceMap dense = buildDdm(field, options.cones);
+        const DirectionalDistanceMap dense = buildDdm(field, options.cones, 2, 0, options.threads);
         m.denseDdmBytes = dense.bytes();
         m.ddm = compressDdm(dense, options.block);
     } else {

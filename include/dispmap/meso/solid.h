@@ -15,7 +15,10 @@
 //    same box bound and cone test as the height-field builder), searched in shells of voxels;
 //  * marchDdmSolid: Algorithm 3.1 where a voxel whose distance is 0 tests the ray exactly
 //    against the triangles listed for it (CPU; the GPU renderer draws height fields).
+#include <algorithm>
 #include <array>
+#include <bit>
+#include <cstdint>
 
 #include "dispmap/meso/march.h"
 
@@ -213,9 +216,11 @@ inline DistanceMap buildSolidDistanceMap(const MesoSolid& s) {
     return m;
 }
 
-/// The conservative DDM of the solid (see the top of this file). Cap default: `layers`.
-inline DirectionalDistanceMap buildSolidDdm(const MesoSolid& s, const ConeSet& cones, float cap = 0) {
+/// The conservative DDM of the solid (see the top of this file). Cap default: `layers`. Rows of
+/// voxels on `threads` threads (core/parallel.h; the same map for every count).
+inline DirectionalDistanceMap buildSolidDdm(const MesoSolid& s, const ConeSet& cones, float cap = 0, int threads = 0) {
     cones.validate();
+    checkThreads(threads, "directional distance map");
     if (!(cap >= 0) || !std::isfinite(cap)) throw ArgumentError("directional distance map: cap must be finite and >= 0");
     DirectionalDistanceMap m;
     m.width = s.width;
@@ -226,39 +231,63 @@ inline DirectionalDistanceMap buildSolidDdm(const MesoSolid& s, const ConeSet& c
     m.d.assign(static_cast<std::size_t>(cones.count()) * s.voxelSolid.size(), m.cap);
     const int S = s.sub;
     const double h = 1.0 / S, bottom = -4.0 * s.layers - 1.0;
-    detail::parallelLayers(s.layers, [&](int k) {
-        for (int c = 0; c < cones.count(); ++c) {
-            double az[2], el[2];
-            cones.range(c, az, el);
-            for (int j = 0; j < s.height; ++j)
-                for (int i = 0; i < s.width; ++i) {
-                    double best = m.cap;
-                    // The floor.
-                    const detail::Box floorBox{{-1e9, -1e9, bottom - (k + 1.0)}, {1e9, 1e9, 0.0 - k}};
-                    if (detail::boxMeetsCone(floorBox, az, el)) best = std::min(best, detail::boxDistance(floorBox));
-                    const int maxShell = static_cast<int>(std::ceil(best)) + 1;
-                    for (int r = 0; r <= maxShell && r - 1 < best; ++r)
-                        for (int dk = -r; dk <= r; ++dk) {
-                            const int vk = k + dk;
-                            if (vk < 0 || vk >= s.layers) continue;
-                            for (int dj = -r; dj <= r; ++dj)
-                                for (int di = -r; di <= r; ++di) {
-                                    if (std::max({std::abs(di), std::abs(dj), std::abs(dk)}) != r) continue;
-                                    if (!s.voxelSolid[s.voxelIndex(i + di, j + dj, vk)]) continue;
-                                    const detail::Box vb{{di - 1.0, dj - 1.0, dk - 1.0}, {di + 1.0, dj + 1.0, dk + 1.0}};
-                                    if (detail::boxDistance(vb) >= best || !detail::boxMeetsCone(vb, az, el)) continue;
-                                    for (int e = 0; e < S * S * S; ++e) {
-                                        const int a = e % S, b = e / S % S, z = e / (S * S);
-                                        if (!s.subSolid((i + di) * S + a, (j + dj) * S + b, vk * S + z)) continue;
-                                        const glm::dvec3 l(di + a * h, dj + b * h, dk + z * h);
-                                        const detail::Box D{l - 1.0, l + h};
-                                        const double dist = detail::boxDistance(D);
-                                        if (dist < best && detail::boxMeetsCone(D, az, el)) best = dist;
-                                    }
-                                }
-                        }
-                    m.d[m.index(c, i, j, k)] = detail::floatBelow(best);
+    std::vector<detail::ConeTest> tests;
+    for (int c = 0; c < cones.count(); ++c) tests.push_back(detail::coneTest(cones, c));
+    const int C = cones.count();
+    // One row of voxels (layer, row) a task: each voxel is independent. All cones of a voxel
+    // share one search (as buildDdm): every box's distance once, tested against the cones it
+    // could still improve; the shells go on while any cone's best may improve.
+    detail::parallelRows(s.layers * s.height, threads, [&](int row) {
+        const int j = row % s.height, k = row / s.height;
+        std::array<double, kMaxCones> best;
+        for (int i = 0; i < s.width; ++i) {
+            best.fill(m.cap);
+            // The floor.
+            const detail::Box floorBox{{-1e9, -1e9, bottom - (k + 1.0)}, {1e9, 1e9, 0.0 - k}};
+            const double floorDist = detail::boxDistance(floorBox);
+            for (int c = 0; c < C; ++c)
+                if (detail::boxMeetsCone(floorBox, tests[static_cast<std::size_t>(c)]))
+                    best[static_cast<std::size_t>(c)] = std::min(best[static_cast<std::size_t>(c)], floorDist);
+            double worst = *std::max_element(best.begin(), best.begin() + C);
+            const int maxShell = static_cast<int>(std::ceil(m.cap)) + 1;
+            const auto visit = [&](int di, int dj, int dk) {
+                const int vk = k + dk;
+                if (!s.voxelSolid[s.voxelIndex(i + di, j + dj, vk)]) return;
+                const detail::Box vb{{di - 1.0, dj - 1.0, dk - 1.0}, {di + 1.0, dj + 1.0, dk + 1.0}};
+                const double voxelDist = detail::boxDistance(vb);
+                if (voxelDist >= worst) return;
+                std::uint32_t open = 0; // the cones this voxel may still improve
+                for (int c = 0; c < C; ++c)
+                    if (voxelDist < best[static_cast<std::size_t>(c)] && detail::boxMeetsCone(vb, tests[static_cast<std::size_t>(c)]))
+                        open |= 1u << c;
+                if (open == 0) return;
+                for (int e = 0; e < S * S * S; ++e) {
+                    const int a = e % S, b = e / S % S, z = e / (S * S);
+                    if (!s.subSolid((i + di) * S + a, (j + dj) * S + b, vk * S + z)) continue;
+                    const glm::dvec3 l(di + a * h, dj + b * h, dk + z * h);
+                    const detail::Box D{l - 1.0, l + h};
+                    const double dist = detail::boxDistance(D);
+                    for (std::uint32_t rest = open; rest != 0; rest &= rest - 1) {
+                        const int c = std::countr_zero(rest);
+                        if (dist < best[static_cast<std::size_t>(c)] && detail::boxMeetsCone(D, tests[static_cast<std::size_t>(c)]))
+                            best[static_cast<std::size_t>(c)] = dist;
+                    }
                 }
+                worst = *std::max_element(best.begin(), best.begin() + C);
+            };
+            for (int r = 0; r <= maxShell && r - 1 < worst; ++r)
+                for (int dk = -r; dk <= r; ++dk) {
+                    if (k + dk < 0 || k + dk >= s.layers) continue;
+                    for (int dj = -r; dj <= r; ++dj) {
+                        if (std::abs(dk) == r || std::abs(dj) == r) { // a whole row of the shell
+                            for (int di = -r; di <= r; ++di) visit(di, dj, dk);
+                        } else { // only its two ends
+                            visit(-r, dj, dk);
+                            if (r > 0) visit(r, dj, dk);
+                        }
+                    }
+                }
+            for (int c = 0; c < C; ++c) m.d[m.index(c, i, j, k)] = detail::floatBelow(best[static_cast<std::size_t>(c)]);
         }
     });
     return m;

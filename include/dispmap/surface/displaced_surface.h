@@ -8,7 +8,9 @@
 //    (kernels/normal.h).
 //  * Auto: per face, the accurate normal only where a bound on the Weingarten term says the
 //    approximate normal is off by more than the caller's tolerance (an angle). The bound is
-//    computed once per face (autoFaces()): at each point of a grid over the face, the angle the
+//    computed once per face, the first time auto normals (or autoFaces()) are asked for: a
+//    surface that never uses them never pays the autoSamples^2 evaluations a face (on
+//    options().threads threads, the same bounds for every count). At each point of a grid over the face, the angle the
 //    Weingarten term turns the approximate normal by (dmWeingartenAngleSine) with |D| widened
 //    by half a cell times |grad D| (either sign), largest over the grid, times kAutoMargin for
 //    what the grid misses. Between the samples it is an estimate, not a proof; the tests
@@ -30,11 +32,15 @@
 // quad neighbour would read s = 1 the two sides of the T-junction differ; callers that pick rho
 // per vertex (tessellator.h) floor the resolution of sub-faces accordingly.
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
+#include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
+#include "dispmap/core/parallel.h"
 #include "dispmap/surface/base_surface.h"
 #include "dispmap/kernels/lod.h"
 #include "dispmap/kernels/normal.h"
@@ -85,6 +91,8 @@ struct DisplacedSurfaceOptions {
     double autoTolerance = 0.01;
     /// Samples per side of the per-face grid the auto bound is taken over.
     int autoSamples = 17;
+    /// Threads of the auto-normal analysis (core/parallel.h: 0 all cores, 1 the calling thread).
+    int threads = 0;
 };
 
 class DisplacedSurface {
@@ -109,11 +117,14 @@ class DisplacedSurface {
     /// spokes of an N-gon's sub-faces are 1/2 from their vertex), so 0.146 at isolation 2.
     double sharpBand() const { return sharpBand_; }
 
-    /// Per Ptex face: whether auto mode evaluates the accurate normal there.
-    const std::vector<std::uint8_t>& autoFaces() const { return autoAccurate_; }
+    /// Per Ptex face: whether auto mode evaluates the accurate normal there. These three run the
+    /// auto-normal analysis if it has not run yet (once; thread-safe).
+    const std::vector<std::uint8_t>& autoFaces() const { return autoAnalysis().accurate; }
     /// How many faces auto mode evaluates accurately, and the bound per face (sine).
-    int autoAccurateCount() const { return autoCount_; }
-    double autoBound(int face) const { return autoBound_[base_->checkedFace(face)]; }
+    int autoAccurateCount() const { return autoAnalysis().count; }
+    double autoBound(int face) const { return autoAnalysis().bound[base_->checkedFace(face)]; }
+    /// Whether the auto-normal analysis has run (it runs on the first use of auto normals).
+    bool autoAnalysed() const { return auto_->done.load(std::memory_order_acquire); }
 
     /// (D, D_u, D_v) at (face, u, v) read at resolution rho (kFinest: the finest level the
     /// §4.4 clamp allows). Throws ArgumentError for a face id out of range, (u, v) outside
@@ -136,13 +147,21 @@ class DisplacedSurface {
                                       glm::vec<3, real>& N, glm::vec<3, real>& du, glm::vec<3, real>& dv) const;
     template <typename real>
     glm::vec<3, real> endCapNormal(int face, real u, real v, bool accurate, real rho, const glm::vec<3, real>& own) const;
+    /// The auto-normal analysis, computed on first use (copies of the surface share it).
+    struct AutoAnalysis {
+        std::once_flag once;
+        std::atomic<bool> done{false};
+        std::vector<std::uint8_t> accurate;
+        std::vector<double> bound;
+        int count = 0;
+    };
+    const AutoAnalysis& autoAnalysis() const;
+    double autoFaceBound(int face) const;
     const BaseSurface* base_;
     const TileSet* tiles_;
     DisplacedSurfaceOptions options_;
     double sharpBand_ = 0;
-    std::vector<std::uint8_t> autoAccurate_;
-    std::vector<double> autoBound_;
-    int autoCount_ = 0;
+    std::shared_ptr<AutoAnalysis> auto_ = std::make_shared<AutoAnalysis>();
 };
 
 template <typename real> void DisplacedSurface::check(int face, real u, real v, real rho, bool uv) const {
@@ -219,9 +238,9 @@ glm::vec<3, real> DisplacedSurface::endCapNormal(int face, real u, real v, bool 
 
 template <typename real>
 SurfaceSample<real> DisplacedSurface::evaluate(int face, real u, real v, NormalMode mode, real rho) const {
-    check(face, u, v, rho, false); // before autoAccurate_[face]; BaseSurface checks (u, v) and holes
+    check(face, u, v, rho, false); // before the auto analysis reads [face]; BaseSurface checks (u, v) and holes
     const bool accurate = mode == NormalMode::Accurate ||
-                          (mode == NormalMode::Auto && autoAccurate_[static_cast<std::size_t>(face)] != 0);
+                          (mode == NormalMode::Auto && autoAnalysis().accurate[static_cast<std::size_t>(face)] != 0);
     // Approximate normals need first derivatives only; the second are fetched where s_u x s_v
     // vanishes, for the Taylor fallback of dmBaseNormal.
     BaseSample<real> s = base_->evaluate(face, u, v, accurate);
@@ -268,36 +287,50 @@ inline DisplacedSurface::DisplacedSurface(const BaseSurface& base, const TileSet
                                 "or set the sharp-feature band to 0 (the creases then open)");
         sharpBand_ = std::min(options.sharpBand, 0.5 - sharpCapRadius());
     }
-    const int n = base.faceCount();
-    autoAccurate_.assign(static_cast<std::size_t>(n), 0);
-    autoBound_.assign(static_cast<std::size_t>(n), 0.0);
-    const double limit = std::sin(std::min(options.autoTolerance, 1.5707963267948966));
-    for (int f = 0; f < n; ++f) {
-        if (base.isHole(f)) continue;
-        double bound = 0;
-        const int m = options.autoSamples;
-        const double h = 1.0 / double(m - 1);
-        for (int j = 0; j < m && bound < 1.0; ++j)
-            for (int i = 0; i < m && bound < 1.0; ++i) {
-                const double u = i * h, v = j * h;
-                const BaseSample<double> s = base.evaluate(f, u, v, true);
-                const glm::dvec3 N = kern::dmBaseNormal(s.du, s.dv, s.duu, s.duv, s.dvv, glm::dvec2(u, v), glm::dvec3(0, 0, 1));
-                glm::dvec3 Nu, Nv, au, av;
-                kern::dmNormalDerivWeingarten(s.du, s.dv, s.duu, s.duv, s.dvv, N, kSinMin<double>, Nu, Nv);
-                const glm::dvec3 d1 = featheredAt(f, u, v, kFinest);
-                kern::dmDisplacedNormalApprox(s.du, s.dv, N, d1, au, av);
-                // The largest |D| in the cell around the sample, to first order, either sign.
-                const double absD = std::abs(d1.x) + 0.5 * h * (std::abs(d1.y) + std::abs(d1.z));
-                bound = std::max({bound, kern::dmWeingartenAngleSine(au, av, Nu, Nv, absD),
-                                  kern::dmWeingartenAngleSine(au, av, Nu, Nv, -absD)});
-            }
-        bound = std::min(1.0, kAutoMargin * bound);
-        autoBound_[static_cast<std::size_t>(f)] = bound;
-        if (bound > limit) {
-            autoAccurate_[static_cast<std::size_t>(f)] = 1;
-            ++autoCount_;
+    checkThreads(options.threads, "displaced surface");
+}
+
+inline double DisplacedSurface::autoFaceBound(int f) const {
+    const BaseSurface& base = *base_;
+    if (base.isHole(f)) return 0.0;
+    double bound = 0;
+    const int m = options_.autoSamples;
+    const double h = 1.0 / double(m - 1);
+    for (int j = 0; j < m && bound < 1.0; ++j)
+        for (int i = 0; i < m && bound < 1.0; ++i) {
+            const double u = i * h, v = j * h;
+            const BaseSample<double> s = base.evaluate(f, u, v, true);
+            const glm::dvec3 N = kern::dmBaseNormal(s.du, s.dv, s.duu, s.duv, s.dvv, glm::dvec2(u, v), glm::dvec3(0, 0, 1));
+            glm::dvec3 Nu, Nv, au, av;
+            kern::dmNormalDerivWeingarten(s.du, s.dv, s.duu, s.duv, s.dvv, N, kSinMin<double>, Nu, Nv);
+            const glm::dvec3 d1 = featheredAt(f, u, v, kFinest);
+            kern::dmDisplacedNormalApprox(s.du, s.dv, N, d1, au, av);
+            // The largest |D| in the cell around the sample, to first order, either sign.
+            const double absD = std::abs(d1.x) + 0.5 * h * (std::abs(d1.y) + std::abs(d1.z));
+            bound = std::max({bound, kern::dmWeingartenAngleSine(au, av, Nu, Nv, absD),
+                              kern::dmWeingartenAngleSine(au, av, Nu, Nv, -absD)});
         }
-    }
+    return std::min(1.0, kAutoMargin * bound);
+}
+
+inline const DisplacedSurface::AutoAnalysis& DisplacedSurface::autoAnalysis() const {
+    AutoAnalysis& a = *auto_;
+    if (a.done.load(std::memory_order_acquire)) return a;
+    std::call_once(a.once, [&] {
+        const std::size_t n = static_cast<std::size_t>(base_->faceCount());
+        a.accurate.assign(n, 0);
+        a.bound.assign(n, 0.0);
+        // Faces are independent: each writes its own bound (the same for every thread count).
+        Parallel(options_.threads).each(n, 16, [&](std::size_t f) { a.bound[f] = autoFaceBound(static_cast<int>(f)); });
+        const double limit = std::sin(std::min(options_.autoTolerance, 1.5707963267948966));
+        for (std::size_t f = 0; f < n; ++f)
+            if (a.bound[f] > limit) {
+                a.accurate[f] = 1;
+                ++a.count;
+            }
+        a.done.store(true, std::memory_order_release);
+    });
+    return a;
 }
 
 } // namespace dispmap

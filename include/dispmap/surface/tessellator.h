@@ -76,6 +76,7 @@
 #include "dispmap/surface/base_surface.h"
 #include "dispmap/surface/displaced_surface.h"
 #include "dispmap/core/error.h"
+#include "dispmap/core/parallel.h"
 #include "dispmap/core/triangle_mesh.h"
 #include "dispmap/kernels/lod.h"
 #include "dispmap/kernels/tile.h"
@@ -113,6 +114,10 @@ struct TessellateOptions {
     MipSelection mips = MipSelection::Off;
     /// tessellate() refuses (ArgumentError) when Tessellator::estimate()'s bytes exceed this.
     std::uint64_t maxBytes = kMaxTessellationBytes;
+    /// Threads evaluating the vertices (core/parallel.h: 0 all cores, 1 the calling thread).
+    /// The connectivity is made in tile order on one thread, so the mesh is the same bit for
+    /// bit for every count.
+    int threads = 0;
 };
 
 /// The size of a tessellation, from its factors alone (Tessellator::estimate).
@@ -334,6 +339,7 @@ inline Tessellator::Tessellator(const DisplacedSurface& surface, TessFactors fac
     if (!std::isfinite(options.maxFactor) || options.maxFactor < 1.0 || options.maxFactor > 1024.0)
         throw ArgumentError("maximum tessellation factor " + std::to_string(options.maxFactor) +
                             " out of range [1, 1024]");
+    checkThreads(options.threads, "tessellation");
     if (options.mips == MipSelection::Off) return;
 
     // Per base vertex: the mip value, with the floor at vertices of non-quad faces.
@@ -569,12 +575,19 @@ inline TessellationSize Tessellator::estimate() const {
 inline TriangleMesh Tessellator::tessellate() const {
     const BaseSurface& base = surface_->base();
     const TileTopology& topo = base.topology();
-    if (const TessellationSize size = estimate(); size.bytes > options_.maxBytes)
+    const TessellationSize size = estimate();
+    if (size.bytes > options_.maxBytes)
         throw ArgumentError("tessellation: " + std::to_string(size.triangles) + " triangles and up to " + std::to_string(size.vertices) +
                             " vertices would take about " + std::to_string(size.bytes >> 20) + " MiB, more than the limit of " +
                             std::to_string(options_.maxBytes >> 20) + " MiB: lower the factors or the maximum factor");
     Build b;
     b.corner.assign(static_cast<std::size_t>(topo.vertexCount()), -1);
+    // The counts are known: no vector grows (and copies) while the tiles are made.
+    b.pending.reserve(static_cast<std::size_t>(size.vertices));
+    b.mesh.triangles.reserve(static_cast<std::size_t>(size.triangles));
+    b.mesh.triangleFaces.reserve(static_cast<std::size_t>(size.triangles));
+    b.mesh.triangleUVs.reserve(static_cast<std::size_t>(size.triangles));
+    b.segments.reserve(static_cast<std::size_t>(2 * topo.tileCount() + 8));
     for (int t = 0; t < topo.tileCount(); ++t)
         if (!base.isHole(t)) tile(b, t);
 
@@ -585,19 +598,24 @@ inline TriangleMesh Tessellator::tessellate() const {
     m.faces.resize(n);
     m.uvs.resize(n);
     m.resolutions.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
+    if (options_.normals == NormalMode::Auto) (void)surface_->autoFaces(); // the analysis, once, before the loop
+    // Vertices are independent: each writes its own slot.
+    std::vector<char> finite(n, 1);
+    Parallel(options_.threads).each(n, 256, [&](std::size_t i) {
         const Pending& p = b.pending[i];
         const double rho = resolution(p.face, p.uv.x, p.uv.y);
         const SurfaceSample<double> s = surface_->evaluate<double>(p.face, p.uv.x, p.uv.y, options_.normals, rho);
-        if (!std::isfinite(s.position.x + s.position.y + s.position.z + s.normal.x + s.normal.y + s.normal.z))
-            throw Error("tessellation: the surface is not finite at Ptex face " + std::to_string(p.face) + ", (u, v) = (" +
-                        std::to_string(p.uv.x) + ", " + std::to_string(p.uv.y) + ")");
+        finite[i] = std::isfinite(s.position.x + s.position.y + s.position.z + s.normal.x + s.normal.y + s.normal.z);
         m.positions[i] = s.position;
         m.normals[i] = s.normal;
         m.faces[i] = p.face;
         m.uvs[i] = p.uv;
         m.resolutions[i] = rho;
-    }
+    });
+    for (std::size_t i = 0; i < n; ++i)
+        if (!finite[i])
+            throw Error("tessellation: the surface is not finite at Ptex face " + std::to_string(b.pending[i].face) + ", (u, v) = (" +
+                        std::to_string(b.pending[i].uv.x) + ", " + std::to_string(b.pending[i].uv.y) + ")");
     return std::move(b.mesh);
 }
 

@@ -45,6 +45,7 @@
 #include <vector>
 
 #include "dispmap/core/height_image.h"
+#include "dispmap/core/parallel.h"
 #include "dispmap/surface/mesh.h"
 #include "dispmap/surface/tile_topology.h"
 #include "dispmap/core/tileset.h"
@@ -60,6 +61,11 @@ struct BuildOptions {
     MipFilter filter = MipFilter::Haar;
     int maxSweeps = 100;     ///< block Gauss-Jacobi sweeps of the interpolating fit at most
     double tolerance = 1e-13; ///< stop when no coefficient moves more than this x (1 + max |sample|)
+    /// Threads for sampling, fit and mips (core/parallel.h: 0 all cores, 1 the calling thread).
+    /// The tiles are the same bit for bit for every count. With more than one thread the
+    /// source is called from several threads at once: it must allow that (the library's
+    /// sources do: images, functions of (face, u, v), ray casts).
+    int threads = 0;
 };
 
 struct BuildReport {
@@ -254,22 +260,26 @@ class TileBuild {
             }
     }
 
-    /// Computes every level of every tile from the fitted finest interiors: interiors (fit or
-    /// mip filter), the corner constraint, then edge and corner rings, resolution by resolution.
-    void finalize(MipFilter filter) {
-        const int n = topo_.tileCount();
-        int gmax = 0, gmin = 1 << 30;
-        for (int t = 0; t < n; ++t) {
-            gmax = std::max(gmax, global(t, 0));
-            gmin = std::min(gmin, global(t, k_[u(t)]));
-        }
-        for (int g = gmax; g >= gmin; --g) {
-            std::vector<std::pair<int, int>> active;
-            for (int t = 0; t < n; ++t) {
-                if (int m = levelAt(t, g); m >= 0) active.emplace_back(t, m);
-                if (int m = sourceLevelAt(t, g); m == k_[u(t)]) filterLevel(t, m, filter);
-            }
-            for (auto [t, m] : active) {
+    /// Computes the levels of every tile from the fitted finest interiors: interiors (fit or
+    /// mip filter), the corner constraint, then edge and corner rings, resolution by resolution
+    /// from the finest. `all` = false stops after the finest resolution any tile's level 0 has
+    /// (what the fit's sweeps read: a resolution reads only data of its own resolution, so the
+    /// levels it computes are those all = true computes). Each phase runs over tiles (or
+    /// vertices) in parallel; every task writes only its own tile's level (or its vertex's
+    /// corners) and reads what earlier phases wrote, so the result is the same on any number
+    /// of threads.
+    void finalize(MipFilter filter, const Parallel& par, bool all = true) {
+        prepareSchedule();
+        const int gStop = all ? gmin_ : gLevel0Min_;
+        for (int g = gmax_; g >= gStop; --g) {
+            const Schedule& sch = schedule_[u(gmax_ - g)];
+            const std::vector<std::pair<int, int>>& active = sch.active;
+            par.each(sch.virtualLevels.size(), 64, [&](std::size_t i) {
+                const int t = sch.virtualLevels[i];
+                filterLevel(t, k_[u(t)], filter);
+            });
+            par.each(active.size(), 16, [&](std::size_t i) {
+                const auto [t, m] = active[i];
                 if (m == 0) {
                     const int s = size(t, 0);
                     for (int b = 1; b <= s; ++b)
@@ -277,9 +287,10 @@ class TileBuild {
                 } else {
                     filterLevel(t, m, filter);
                 }
-            }
-            for (int v = 0; v < topo_.vertexCount(); ++v) {
-                if (topo_.kind(v) != TileTopology::VertexKind::Constrained) continue;
+            });
+            // Each constrained vertex averages and writes its own incident corners.
+            par.each(constrained_.size(), 256, [&](std::size_t i) {
+                const int v = constrained_[i];
                 double sum = 0.0;
                 int count = 0;
                 for (auto [t, c] : topo_.incidences(v))
@@ -287,14 +298,53 @@ class TileBuild {
                         sum += cornerInterior(t, m, c);
                         ++count;
                     }
-                if (count == 0) continue;
+                if (count == 0) return;
                 for (auto [t, c] : topo_.incidences(v))
                     if (int m = levelAt(t, g); m >= 0) cornerInterior(t, m, c) = sum / count;
-            }
-            for (auto [t, m] : active) fillEdgeRings(t, m, g);
-            for (auto [t, m] : active)
-                for (int c = 0; c < 4; ++c) fillCorner(t, m, c, g);
+            });
+            par.each(active.size(), 16, [&](std::size_t i) { fillEdgeRings(active[i].first, active[i].second, g); });
+            // Corners at constrained vertices first: they rewrite ring texels next to the corner
+            // that a neighbour's T-junction corner reads.
+            par.each(active.size(), 16, [&](std::size_t i) {
+                for (int c = 0; c < 4; ++c)
+                    if (topo_.kind(topo_.cornerVertex(active[i].first, c)) == TileTopology::VertexKind::Constrained)
+                        fillCorner(active[i].first, active[i].second, c, g);
+            });
+            par.each(active.size(), 16, [&](std::size_t i) {
+                for (int c = 0; c < 4; ++c)
+                    if (topo_.kind(topo_.cornerVertex(active[i].first, c)) != TileTopology::VertexKind::Constrained)
+                        fillCorner(active[i].first, active[i].second, c, g);
+            });
         }
+    }
+
+    /// Per resolution, the (tile, level) pairs to compute and the tiles whose virtual level
+    /// (size 1) lies there; the constrained vertices. Made once: the sizes do not change.
+    struct Schedule {
+        std::vector<std::pair<int, int>> active;
+        std::vector<int> virtualLevels;
+    };
+    void prepareSchedule() {
+        if (!schedule_.empty()) return;
+        const int n = topo_.tileCount();
+        gmax_ = 0;
+        gmin_ = 1 << 30;
+        gLevel0Min_ = 1 << 30;
+        for (int t = 0; t < n; ++t) {
+            gmax_ = std::max(gmax_, global(t, 0));
+            gmin_ = std::min(gmin_, global(t, k_[u(t)]));
+            gLevel0Min_ = std::min(gLevel0Min_, global(t, 0));
+        }
+        schedule_.resize(u(gmax_ - gmin_ + 1));
+        for (int g = gmax_; g >= gmin_; --g) {
+            Schedule& sch = schedule_[u(gmax_ - g)];
+            for (int t = 0; t < n; ++t) {
+                if (int m = levelAt(t, g); m >= 0) sch.active.emplace_back(t, m);
+                if (int m = sourceLevelAt(t, g); m == k_[u(t)]) sch.virtualLevels.push_back(t);
+            }
+        }
+        for (int v = 0; v < topo_.vertexCount(); ++v)
+            if (topo_.kind(v) == TileTopology::VertexKind::Constrained) constrained_.push_back(v);
     }
 
     void fillEdgeRings(int t, int m, int g) {
@@ -388,56 +438,94 @@ class TileBuild {
     }
 
     /// One sweep of the fit: each tile of `tiles` has its interior solved exactly with the
-    /// current rings (the other tiles stay as they are). Returns the largest change.
-    double solveSweep(const std::vector<std::vector<double>>& samples, const std::vector<int>& tiles) {
+    /// current rings (the other tiles stay as they are). Returns the largest change. Tiles are
+    /// solved in parallel (each writes only its own fit interior); the largest change is taken
+    /// over per-tile maxima, the same on any number of threads. No allocation per tile: one
+    /// scratch buffer per range of tiles, and the Thomas factors of each size made once.
+    double solveSweep(const std::vector<std::vector<double>>& samples, const std::vector<int>& tiles, const Parallel& par) {
+        for (int t : tiles) thomas(k_[u(t)]);
+        changes_.assign(tiles.size(), 0.0);
+        par.ranges(tiles.size(), 8, [&](std::size_t begin, std::size_t end) {
+            std::vector<double> rhs;
+            for (std::size_t i = begin; i < end; ++i) changes_[i] = solveTile(samples, tiles[i], rhs);
+        });
         double change = 0.0;
-        for (int t : tiles) {
-            const int s = size(t, 0);
-            const int w = s + 2;
-            std::vector<double> rhs(u(s * s));
-            for (int j = 1; j <= s; ++j)
-                for (int i = 1; i <= s; ++i) {
-                    double r = 64.0 * samples[u(t)][u((j - 1) * s + (i - 1))];
-                    for (int b = -1; b <= 1; ++b)
-                        for (int a = -1; a <= 1; ++a) {
-                            const int A = i + a, B = j + b;
-                            if (A >= 1 && A <= s && B >= 1 && B <= s) continue;
-                            r -= (a == 0 ? 6.0 : 1.0) * (b == 0 ? 6.0 : 1.0) * data_[u(t)][0][u(B * w + A)];
-                        }
-                    rhs[u((j - 1) * s + (i - 1))] = r;
-                }
-            // (T x T) x = rhs with T = tridiag(1, 6, 1): rows, then columns.
-            std::vector<double> line(u(s));
-            for (int j = 0; j < s; ++j) {
-                for (int i = 0; i < s; ++i) line[u(i)] = rhs[u(j * s + i)];
-                solveTridiagonal(line);
-                for (int i = 0; i < s; ++i) rhs[u(j * s + i)] = line[u(i)];
-            }
+        for (double c : changes_) change = std::max(change, c);
+        return change;
+    }
+
+    /// Solves tile t's (T x T) x = rhs with T = tridiag(1, 6, 1) (Thomas algorithm, with the
+    /// factors of its size), writes the fit interior and returns its largest change.
+    double solveTile(const std::vector<std::vector<double>>& samples, int t, std::vector<double>& rhs) {
+        const int s = size(t, 0);
+        const int w = s + 2;
+        const std::vector<double>& d = data_[u(t)][0];
+        const std::vector<double>& y = samples[u(t)];
+        const Thomas& th = thomas_[u(k_[u(t)])];
+        rhs.resize(u(s * s));
+        auto R = [&](int i, int j) -> double& { return rhs[u((j - 1) * s + (i - 1))]; };
+        auto D = [&](int a, int b) { return d[u(b * w + a)]; };
+        for (std::size_t i = 0; i < u(s * s); ++i) rhs[i] = 64.0 * y[i];
+        // The ring's part of each border sample's 3 x 3 stencil (weights (1, 6, 1) x (1, 6, 1)),
+        // moved to the right side: the bottom and top rows take their ring rows' three texels
+        // (corners included), the left and right columns the ring texels not on those rows.
+        for (int i = 1; i <= s; ++i) {
+            R(i, 1) -= D(i - 1, 0) + 6.0 * D(i, 0) + D(i + 1, 0);
+            R(i, s) -= D(i - 1, s + 1) + 6.0 * D(i, s + 1) + D(i + 1, s + 1);
+        }
+        for (int j = 1; j <= s; ++j) {
+            double left = 6.0 * D(0, j), right = 6.0 * D(s + 1, j);
+            if (j > 1) left += D(0, j - 1), right += D(s + 1, j - 1);
+            if (j < s) left += D(0, j + 1), right += D(s + 1, j + 1);
+            R(1, j) -= left;
+            R(s, j) -= right;
+        }
+        // Columns (v): all of a row at once, forward then back.
+        for (int i = 0; i < s; ++i) rhs[u(i)] *= th.invBeta[0];
+        for (int j = 1; j < s; ++j) {
+            double* row = &rhs[u(j * s)];
+            const double* prev = &rhs[u((j - 1) * s)];
+            for (int i = 0; i < s; ++i) row[i] = (row[i] - prev[i]) * th.invBeta[u(j)];
+        }
+        for (int j = s - 1; j-- > 0;) {
+            double* row = &rhs[u(j * s)];
+            const double* next = &rhs[u((j + 1) * s)];
+            for (int i = 0; i < s; ++i) row[i] -= th.c[u(j + 1)] * next[i];
+        }
+        // Rows (u), each along itself, written to the fit interior.
+        double change = 0.0;
+        for (int j = 0; j < s; ++j) {
+            double* row = &rhs[u(j * s)];
+            row[0] *= th.invBeta[0];
+            for (int i = 1; i < s; ++i) row[i] = (row[i] - row[i - 1]) * th.invBeta[u(i)];
+            for (int i = s - 1; i-- > 0;) row[i] -= th.c[u(i + 1)] * row[i + 1];
             for (int i = 0; i < s; ++i) {
-                for (int j = 0; j < s; ++j) line[u(j)] = rhs[u(j * s + i)];
-                solveTridiagonal(line);
-                for (int j = 0; j < s; ++j) {
-                    double& x = fitAt(t, i + 1, j + 1);
-                    change = std::max(change, std::abs(line[u(j)] - x));
-                    x = line[u(j)];
-                }
+                double& x = fitAt(t, i + 1, j + 1);
+                change = std::max(change, std::abs(row[i] - x));
+                x = row[i];
             }
         }
         return change;
     }
-
-    /// Solves tridiag(1, 6, 1) x = d in place (Thomas algorithm; diagonally dominant, stable).
-    static void solveTridiagonal(std::vector<double>& d) {
-        const std::size_t n = d.size();
-        std::vector<double> c(n);
+    /// The Thomas factors of tridiag(1, 6, 1) of size 2^k: c_i = 1 / beta_(i-1) (i >= 1) and
+    /// 1 / beta_i, with beta_0 = 6, beta_i = 6 - c_i.
+    struct Thomas {
+        std::vector<double> c, invBeta;
+    };
+    void thomas(int k) {
+        if (thomas_.size() <= u(k)) thomas_.resize(u(k + 1));
+        Thomas& th = thomas_[u(k)];
+        if (!th.c.empty()) return;
+        const int n = 1 << k;
+        th.c.assign(u(n), 0.0);
+        th.invBeta.assign(u(n), 0.0);
         double beta = 6.0;
-        d[0] /= beta;
-        for (std::size_t i = 1; i < n; ++i) {
-            c[i] = 1.0 / beta;
-            beta = 6.0 - c[i];
-            d[i] = (d[i] - d[i - 1]) / beta;
+        th.invBeta[0] = 1.0 / beta;
+        for (int i = 1; i < n; ++i) {
+            th.c[u(i)] = 1.0 / beta;
+            beta = 6.0 - th.c[u(i)];
+            th.invBeta[u(i)] = 1.0 / beta;
         }
-        for (std::size_t i = n - 1; i-- > 0;) d[i] -= c[i + 1] * d[i + 1];
     }
 
     const std::vector<std::vector<double>>& level(int t) const { return data_[u(t)]; }
@@ -447,6 +535,11 @@ class TileBuild {
     std::vector<int> k_;
     std::vector<std::vector<std::vector<double>>> data_;
     std::vector<std::vector<double>> fit_;
+    std::vector<Schedule> schedule_;
+    std::vector<int> constrained_;
+    int gmax_ = 0, gmin_ = 0, gLevel0Min_ = 0;
+    std::vector<Thomas> thomas_;
+    std::vector<double> changes_;
 };
 
 } // namespace detail
@@ -488,7 +581,9 @@ class TileFitter {
     std::vector<int> refit(const std::vector<int>& faces, const DisplacementFunction& source);
 
   private:
-    void sample(int t, const DisplacementFunction& source, std::vector<double>& out) const;
+    /// Samples the finest level of each tile of `faces` into out[i] (in parallel), then throws
+    /// for the first non-finite sample in face order (the same error for every thread count).
+    void sample(const std::vector<int>& faces, const DisplacementFunction& source, std::vector<std::vector<double>>& out) const;
     void solve(const std::vector<int>& tiles);
     void store(std::vector<int>* changed);
 
@@ -517,6 +612,7 @@ inline TileFitter::TileFitter(const ControlMesh& mesh, const std::vector<int>& k
                                 std::to_string(kMinTileLog2) + ", " + std::to_string(kMaxTileLog2) + "]");
     if (!source) throw ArgumentError("no displacement source given");
     if (options.maxSweeps < 1 || !(options.tolerance >= 0.0)) throw ArgumentError("invalid build options");
+    checkThreads(options.threads, name + ": tile build");
     topo_ = std::make_unique<TileTopology>(mesh);
     const TileTopology& topo = *topo_;
     auto ku = [&](int t) { return k[static_cast<std::size_t>(t)]; };
@@ -555,17 +651,16 @@ inline TileFitter::TileFitter(const ControlMesh& mesh, const std::vector<int>& k
     }
 
     // Samples at the sub-patch centres of each tile's finest level.
-    samples_.resize(static_cast<std::size_t>(n));
-    for (int t = 0; t < n; ++t) sample(t, source, samples_[static_cast<std::size_t>(t)]);
-
-    build_ = std::make_unique<detail::TileBuild>(topo, k);
-    for (int t = 0; t < n; ++t) {
-        const int s = 1 << ku(t);
-        for (int j = 0; j < s; ++j)
-            for (int i = 0; i < s; ++i) build_->fitAt(t, i + 1, j + 1) = samples_[static_cast<std::size_t>(t)][static_cast<std::size_t>(j * s + i)];
-    }
     std::vector<int> all(static_cast<std::size_t>(n));
     for (int t = 0; t < n; ++t) all[static_cast<std::size_t>(t)] = t;
+    sample(all, source, samples_);
+
+    build_ = std::make_unique<detail::TileBuild>(topo, k);
+    Parallel(options_.threads).each(static_cast<std::size_t>(n), 64, [&](std::size_t t) {
+        const int s = 1 << k[t];
+        for (int j = 0; j < s; ++j)
+            for (int i = 0; i < s; ++i) build_->fitAt(static_cast<int>(t), i + 1, j + 1) = samples_[t][static_cast<std::size_t>(j * s + i)];
+    });
     solve(all);
     tiles_->filter = options.filter;
     tiles_->topologyHash = topologyHash(mesh);
@@ -573,18 +668,29 @@ inline TileFitter::TileFitter(const ControlMesh& mesh, const std::vector<int>& k
     store(nullptr);
 }
 
-inline void TileFitter::sample(int t, const DisplacementFunction& source, std::vector<double>& y) const {
-    const int s = 1 << k_[static_cast<std::size_t>(t)];
-    y.resize(static_cast<std::size_t>(s * s));
-    for (int j = 0; j < s; ++j)
-        for (int i = 0; i < s; ++i) {
-            const double uu = (i + 0.5) / s, vv = (j + 0.5) / s;
-            const double d = source(t, uu, vv);
-            if (!std::isfinite(d))
-                throw ArgumentError(name_ + ": displacement source gave " + std::to_string(d) + " at Ptex face " +
-                                    std::to_string(t) + ", (u, v) = (" + std::to_string(uu) + ", " + std::to_string(vv) + ")");
-            y[static_cast<std::size_t>(j * s + i)] = d;
-        }
+inline void TileFitter::sample(const std::vector<int>& faces, const DisplacementFunction& source,
+                               std::vector<std::vector<double>>& out) const {
+    out.resize(faces.size());
+    Parallel(options_.threads).each(faces.size(), 4, [&](std::size_t f) {
+        const int t = faces[f];
+        const int s = 1 << k_[static_cast<std::size_t>(t)];
+        std::vector<double>& y = out[f];
+        y.resize(static_cast<std::size_t>(s * s));
+        for (int j = 0; j < s; ++j)
+            for (int i = 0; i < s; ++i) y[static_cast<std::size_t>(j * s + i)] = source(t, (i + 0.5) / s, (j + 0.5) / s);
+    });
+    for (std::size_t f = 0; f < faces.size(); ++f) {
+        const int t = faces[f];
+        const int s = 1 << k_[static_cast<std::size_t>(t)];
+        for (int j = 0; j < s; ++j)
+            for (int i = 0; i < s; ++i) {
+                const double d = out[f][static_cast<std::size_t>(j * s + i)];
+                if (std::isfinite(d)) continue;
+                const double uu = (i + 0.5) / s, vv = (j + 0.5) / s;
+                throw ArgumentError(name_ + ": displacement source gave " + std::to_string(d) + " at Ptex face " + std::to_string(t) +
+                                    ", (u, v) = (" + std::to_string(uu) + ", " + std::to_string(vv) + ")");
+            }
+    }
 }
 
 inline void TileFitter::solve(const std::vector<int>& tiles) {
@@ -592,58 +698,72 @@ inline void TileFitter::solve(const std::vector<int>& tiles) {
     for (const std::vector<double>& y : samples_)
         for (double d : y) maxAbs = std::max(maxAbs, std::abs(d));
     BuildReport& rep = report_;
+    const Parallel par(options_.threads);
     for (rep.sweeps = 1; rep.sweeps <= options_.maxSweeps; ++rep.sweeps) {
-        build_->finalize(options_.filter);
-        rep.lastChange = build_->solveSweep(samples_, tiles);
+        build_->finalize(options_.filter, par, false);
+        rep.lastChange = build_->solveSweep(samples_, tiles, par);
         if (rep.lastChange <= options_.tolerance * (1.0 + maxAbs)) break;
     }
     rep.sweeps = std::min(rep.sweeps, options_.maxSweeps);
-    build_->finalize(options_.filter);
+    build_->finalize(options_.filter, par);
 }
 
 inline void TileFitter::store(std::vector<int>* changed) {
     const TileTopology& topo = *topo_;
     const detail::TileBuild& b = *build_;
     BuildReport& rep = report_;
-    rep.maxResidual = 0.0;
-    rep.maxResidualAwayFromConstraints = 0.0;
     const int n = topo.tileCount();
-    for (int t = 0; t < n; ++t) {
-        const int kt = k_[static_cast<std::size_t>(t)];
+    // Per tile, in parallel: its stored tile, whether it changed, its two residuals.
+    std::vector<char> differs(static_cast<std::size_t>(n), 0);
+    std::vector<glm::dvec2> residual(static_cast<std::size_t>(n));
+    Parallel(options_.threads).each(static_cast<std::size_t>(n), 16, [&](std::size_t tu) {
+        const int t = static_cast<int>(tu);
+        const int kt = k_[tu];
         Tile tile;
         tile.k = kt;
         for (int c = 0; c < 4; ++c)
             tile.sizeDifferences[static_cast<std::size_t>(c)] = static_cast<std::uint8_t>(
                 kt + topo.scale(t) - gmin_[static_cast<std::size_t>(topo.cornerVertex(t, c))]);
+        tile.coefficients.reserve(Tile::totalTexels(kt));
         for (int m = 0; m < kt; ++m)
             for (double x : b.level(t)[static_cast<std::size_t>(m)]) tile.coefficients.push_back(static_cast<float>(x));
-        Tile& stored = tiles_->tiles[static_cast<std::size_t>(t)];
+        Tile& stored = tiles_->tiles[tu];
         if (!changed || stored.coefficients != tile.coefficients) {
-            if (changed) changed->push_back(t);
+            differs[tu] = 1;
             stored = std::move(tile);
         }
         // Interpolation residual at the samples, on the double coefficients.
         const int s = 1 << kt;
+        const std::vector<double>& c0 = b.level(t)[0];
+        bool constrainedCorner[4];
+        for (int c = 0; c < 4; ++c) constrainedCorner[c] = topo.kind(topo.cornerVertex(t, c)) == TileTopology::VertexKind::Constrained;
+        glm::dvec2 r2(0.0);
         for (int j = 0; j < s; ++j)
             for (int i = 0; i < s; ++i) {
                 double d = 0.0;
                 for (int bb = 0; bb < 3; ++bb)
                     for (int a = 0; a < 3; ++a)
-                        d += (a == 1 ? 0.75 : 0.125) * (bb == 1 ? 0.75 : 0.125) *
-                             b.level(t)[0][static_cast<std::size_t>((j + bb) * (s + 2) + i + a)];
-                const double r = std::abs(d - samples_[static_cast<std::size_t>(t)][static_cast<std::size_t>(j * s + i)]);
-                rep.maxResidual = std::max(rep.maxResidual, r);
+                        d += (a == 1 ? 0.75 : 0.125) * (bb == 1 ? 0.75 : 0.125) * c0[static_cast<std::size_t>((j + bb) * (s + 2) + i + a)];
+                const double r = std::abs(d - samples_[tu][static_cast<std::size_t>(j * s + i)]);
+                r2.x = std::max(r2.x, r);
                 bool nearConstraint = false;
                 for (int c = 0; c < 4; ++c) {
                     // samples whose 3 x 3 stencil reads the corner's 2 x 2 block
                     const bool ni = (c == 1 || c == 2) ? i >= s - 2 : i <= 1;
                     const bool nj = (c >= 2) ? j >= s - 2 : j <= 1;
-                    if (ni && nj &&
-                        topo.kind(topo.cornerVertex(t, c)) == TileTopology::VertexKind::Constrained)
-                        nearConstraint = true;
+                    if (ni && nj && constrainedCorner[c]) nearConstraint = true;
                 }
-                if (!nearConstraint) rep.maxResidualAwayFromConstraints = std::max(rep.maxResidualAwayFromConstraints, r);
+                if (!nearConstraint) r2.y = std::max(r2.y, r);
             }
+        residual[tu] = r2;
+    });
+    rep.maxResidual = 0.0;
+    rep.maxResidualAwayFromConstraints = 0.0;
+    for (int t = 0; t < n; ++t) {
+        const std::size_t tu = static_cast<std::size_t>(t);
+        if (changed && differs[tu]) changed->push_back(t);
+        rep.maxResidual = std::max(rep.maxResidual, residual[tu].x);
+        rep.maxResidualAwayFromConstraints = std::max(rep.maxResidualAwayFromConstraints, residual[tu].y);
     }
 }
 
@@ -657,8 +777,8 @@ inline std::vector<int> TileFitter::refit(const std::vector<int>& faces, const D
     for (int t : edited)
         if (t < 0 || t >= n)
             throw ArgumentError(name_ + ": refit: Ptex face " + std::to_string(t) + " out of range [0, " + std::to_string(n) + ")");
-    std::vector<std::vector<double>> fresh(edited.size());
-    for (std::size_t i = 0; i < edited.size(); ++i) sample(edited[i], source, fresh[i]); // may throw: nothing changed yet
+    std::vector<std::vector<double>> fresh;
+    sample(edited, source, fresh); // may throw: nothing changed yet
     // Faces whose samples did not change are no edit: their tiles stay as they are.
     std::vector<int> solveTiles;
     for (std::size_t i = 0; i < edited.size(); ++i) {

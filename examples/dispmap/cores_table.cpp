@@ -1,0 +1,150 @@
+// `dispmap bench --only cores`: every parallel stage run on one thread and on all cores in the
+// same run (the machine is shared and noisy: the ratio is the figure, not the seconds), with a
+// bit-for-bit comparison of the two results; and the set-up cost of the auto-normal analysis,
+// which now runs only when auto normals are asked for.
+#include "cores_table.h"
+
+#include <chrono>
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <iomanip>
+#include <map>
+#include <memory>
+#include <vector>
+
+#include "maps_table.h"
+#include "meso.h"
+#include "text_format.h"
+#include "dispmap/core/parallel.h"
+#include "dispmap/io/image_files.h"
+#include "dispmap/meso/march.h"
+#include "dispmap/surface/base_surface.h"
+#include "dispmap/surface/displaced_surface.h"
+#include "dispmap/surface/tessellator.h"
+#include "dispmap/surface/uv_map.h"
+
+namespace dispmap::figures {
+
+namespace {
+
+double secondsOf(const std::function<void()>& f) {
+    const auto t0 = std::chrono::steady_clock::now();
+    f();
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+template <class T> bool bitsEqual(const std::vector<T>& a, const std::vector<T>& b) {
+    return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
+}
+
+bool tilesEqual(const TileSet& a, const TileSet& b) {
+    if (a.tileCount() != b.tileCount()) return false;
+    for (std::size_t t = 0; t < a.tiles.size(); ++t)
+        if (a.tiles[t].k != b.tiles[t].k || !bitsEqual(a.tiles[t].coefficients, b.tiles[t].coefficients)) return false;
+    return true;
+}
+
+bool meshesEqual(const TriangleMesh& a, const TriangleMesh& b) {
+    return bitsEqual(a.positions, b.positions) && bitsEqual(a.normals, b.normals) && a.triangles == b.triangles &&
+           a.faces == b.faces;
+}
+
+bool mesoEqual(const std::map<std::string, MesoMaps>& a, const std::map<std::string, MesoMaps>& b) {
+    if (a.size() != b.size()) return false;
+    for (const auto& [name, x] : a) {
+        const auto it = b.find(name);
+        if (it == b.end()) return false;
+        const MesoMaps& y = it->second;
+        if (!bitsEqual(x.distance.d, y.distance.d) || x.ddm.grid != y.ddm.grid || !bitsEqual(x.ddm.atlas, y.ddm.atlas)) return false;
+    }
+    return true;
+}
+
+struct Row {
+    std::string stage, work;
+    double one = 0, all = 0;
+    bool identical = false;
+};
+
+} // namespace
+
+void printCoresTable(std::ostream& out, const CoresTableArgs& a) {
+    const int cores = allCores();
+    const ControlMesh spot = ControlMesh::fromObjFile(a.dataDir + "/spot_control_mesh.obj");
+    HeightMaps brick;
+    brick.images[0] = std::make_shared<const HeightImage>(readHeightImage(a.dataDir + "/skimage_brick.png"));
+    const auto uvs = std::make_shared<const UvMap>(spot, UvInterpolation::Linear);
+    const int k = a.quick ? 4 : 6;
+    std::vector<Row> rows;
+
+    // 1. Tile build: sampling the map, the fit's sweeps, the mips.
+    TileSet tiles1, tilesN;
+    Row build{"tile build (sample, fit, mips)", "Spot, brick map, 2^" + std::to_string(k) + " tiles"};
+    build.one = secondsOf([&] { tiles1 = spotBrickTiles(spot, uvs, brick, k, 1); });
+    build.all = secondsOf([&] { tilesN = spotBrickTiles(spot, uvs, brick, k, 0); });
+    build.identical = tilesEqual(tiles1, tilesN);
+    std::size_t samples = 0;
+    for (const Tile& t : tiles1.tiles) samples += std::size_t{1} << (2 * t.k);
+    rows.push_back(build);
+
+    // 2. Set-up of the displaced surface, and the auto-normal analysis it no longer runs.
+    const BaseSurface base(spot);
+    DisplacedSurfaceOptions one;
+    one.threads = 1;
+    std::unique_ptr<DisplacedSurface> s1, sN;
+    const double construct = secondsOf([&] { s1 = std::make_unique<DisplacedSurface>(base, tiles1, one); });
+    Row analysis{"auto-normal analysis (17^2 a face)", "Spot, on first use of auto normals"};
+    analysis.one = secondsOf([&] { (void)s1->autoFaces(); });
+    sN = std::make_unique<DisplacedSurface>(base, tiles1);
+    analysis.all = secondsOf([&] { (void)sN->autoFaces(); });
+    analysis.identical = s1->autoFaces() == sN->autoFaces();
+    rows.push_back(analysis);
+
+    // 3. Tessellation: connectivity on one thread, vertices on all.
+    const double factor = a.quick ? 8 : 32;
+    TessellateOptions to;
+    to.threads = 1;
+    const TessFactors factors = uniformTessFactors(base, factor);
+    TriangleMesh m1, mN;
+    Row tess{"tessellation (approximate normals)", ""};
+    tess.one = secondsOf([&] { m1 = tessellate(*s1, factors, to); });
+    to.threads = 0;
+    tess.all = secondsOf([&] { mN = tessellate(*s1, factors, to); });
+    tess.identical = meshesEqual(m1, mN);
+    tess.work = "Spot, factor " + fixed(factor, 0) + ", " + std::to_string(m1.triangleCount()) + " triangles";
+    rows.push_back(tess);
+
+    // 4. Mesostructure maps: the bricks scene's cone sets (distance map, DDM, quadrics).
+    const MesoScene bricks = mesoScenes(a.dataDir).front();
+    const std::vector<std::string> coneSets = a.quick ? std::vector<std::string>{"4x1"} : tableConeSets();
+    std::map<std::string, MesoMaps> meso1, mesoN;
+    Row meso{"mesostructure maps", "bricks 128x128x16, " + std::to_string(coneSets.size()) + " cone set" + (coneSets.size() > 1 ? "s" : "")};
+    meso.one = secondsOf([&] { meso1 = buildConeSetMaps(bricks.field, coneSets, 1); });
+    meso.all = secondsOf([&] { mesoN = buildConeSetMaps(bricks.field, coneSets, 0); });
+    meso.identical = mesoEqual(meso1, mesoN);
+    rows.push_back(meso);
+
+    out << "All cores against one thread, measured in one run (" << cores << " cores here; speed-up = 1-thread time / "
+        << cores << "-thread time; identical: the two results compared bit for bit):\n\n";
+    out << "| stage | work | 1 thread s | " << cores << " threads s | speed-up | identical |\n|---|---|---|---|---|---|\n";
+    std::unique_ptr<std::ofstream> csv;
+    if (!a.csv.empty()) {
+        csv = std::make_unique<std::ofstream>(a.csv);
+        *csv << "stage,work,seconds_1,seconds_all,threads,speedup,identical\n";
+    }
+    for (const Row& r : rows) {
+        out << "| " << r.stage << " | " << r.work << " | " << fixed(r.one, 3) << " | " << fixed(r.all, 3) << " | "
+            << fixed(r.one / std::max(r.all, 1e-9), 2) << "x | " << (r.identical ? "yes" : "NO") << " |\n";
+        if (csv)
+            *csv << '"' << r.stage << "\",\"" << r.work << "\"," << r.one << "," << r.all << "," << cores << ","
+                 << r.one / std::max(r.all, 1e-9) << "," << (r.identical ? 1 : 0) << "\n";
+    }
+    out << "\nTile fit rate: " << samples << " samples in " << fixed(build.one, 3) << " s on one thread = "
+        << fixed(static_cast<double>(samples) / build.one / 1e6, 2) << " M samples/s per core (sampling the map included).\n";
+    out << "Set-up of DisplacedSurface on Spot: " << fixed(construct * 1e3, 2)
+        << " ms without the auto-normal analysis (which it ran every time before; " << fixed(analysis.one * 1e3, 1)
+        << " ms on one thread, now only when auto normals are first used).\n";
+}
+
+} // namespace dispmap::figures

@@ -1,0 +1,261 @@
+// All cores, the same results: every parallel entry point (tile build and refit, the
+// auto-normal analysis, tessellation, the mesostructure maps) gives bit-identical output for
+// 1, 2 and 3 threads, on meshes with extraordinary vertices, N-gons (T-junctions), creases and
+// mixed tile sizes; the thread count is checked; the auto-normal analysis runs only when auto
+// normals are asked for; and the comparison-only cone test of the DDM builders never rejects a
+// box that the atan2 form accepts.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstring>
+#include <random>
+
+#include "dispmap/meso/ddm.h"
+#include "dispmap/meso/distance_map.h"
+#include "dispmap/meso/solid.h"
+#include "dispmap/surface/tessellator.h"
+#include "test_meso_support.h"
+#include "test_support.h"
+
+namespace dmtest_parallel {
+
+using namespace dispmap;
+
+namespace {
+
+// Bit for bit: equal doubles and floats may still differ in sign of zero or NaN payload.
+template <class T> bool sameBits(const std::vector<T>& a, const std::vector<T>& b) {
+    return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
+}
+
+bool sameTiles(const TileSet& a, const TileSet& b) {
+    if (a.tileCount() != b.tileCount()) return false;
+    for (int t = 0; t < a.tileCount(); ++t) {
+        const Tile& x = a.tiles[static_cast<std::size_t>(t)];
+        const Tile& y = b.tiles[static_cast<std::size_t>(t)];
+        if (x.k != y.k || x.sizeDifferences != y.sizeDifferences || !sameBits(x.coefficients, y.coefficients)) return false;
+    }
+    return true;
+}
+
+bool sameMesh(const TriangleMesh& a, const TriangleMesh& b) {
+    return sameBits(a.positions, b.positions) && sameBits(a.normals, b.normals) && a.faces == b.faces && sameBits(a.uvs, b.uvs) &&
+           sameBits(a.resolutions, b.resolutions) && a.triangles == b.triangles && a.triangleFaces == b.triangleFaces;
+}
+
+// The pre-2026-12 cone test (atan2 of the box's corners), kept here as the reference the
+// comparison-only test must contain: it may accept more, never less.
+bool boxMeetsConeAtan2(const detail::Box& D, const double az[2], const double el[2]) {
+    constexpr double pi = 3.14159265358979323846, slack = 1e-6;
+    const double cx = std::clamp(0.0, D.lo.x, D.hi.x), cy = std::clamp(0.0, D.lo.y, D.hi.y);
+    const double rhoMin = std::sqrt(cx * cx + cy * cy);
+    const double mx = std::max(std::abs(D.lo.x), std::abs(D.hi.x)), my = std::max(std::abs(D.lo.y), std::abs(D.hi.y));
+    const double rhoMax = std::sqrt(mx * mx + my * my);
+    const double elMax = D.hi.z >= 0 ? std::atan2(D.hi.z, rhoMin) : std::atan2(D.hi.z, rhoMax);
+    const double elMin = D.lo.z <= 0 ? std::atan2(D.lo.z, rhoMin) : std::atan2(D.lo.z, rhoMax);
+    if (elMax < el[0] - slack || elMin > el[1] + slack) return false;
+    if (rhoMin == 0 || az[1] - az[0] >= 2 * pi - slack) return true;
+    auto wrap = [&](double a) {
+        while (a <= -pi) a += 2 * pi;
+        while (a > pi) a -= 2 * pi;
+        return a;
+    };
+    const double centre = std::atan2(0.5 * (D.lo.y + D.hi.y), 0.5 * (D.lo.x + D.hi.x));
+    double lo = 0, hi = 0;
+    for (double x : {D.lo.x, D.hi.x})
+        for (double y : {D.lo.y, D.hi.y}) {
+            const double delta = wrap(std::atan2(y, x) - centre);
+            lo = std::min(lo, delta);
+            hi = std::max(hi, delta);
+        }
+    for (double shift : {-2 * pi, 0.0, 2 * pi})
+        if (centre + lo + shift <= az[1] + slack && centre + hi + shift >= az[0] - slack) return true;
+    return false;
+}
+
+} // namespace
+
+TEST_CASE("parallel: thread counts are checked, every index runs once, 1 thread stays in the caller", "[parallel]") {
+    CHECK_THROWS_WITH(Parallel(-1, "tile build"), Catch::Contains("tile build: thread count -1 out of range"));
+    CHECK_THROWS_AS(Parallel(kMaxThreads + 1), ArgumentError);
+    for (int threads : {0, 1, 2, 3}) {
+        const Parallel par(threads);
+        std::vector<std::atomic<int>> hits(10007);
+        par.each(hits.size(), 7, [&](std::size_t i) { hits[i].fetch_add(1); });
+        for (const std::atomic<int>& h : hits) REQUIRE(h.load() == 1);
+    }
+    int calls = 0;
+    Parallel(1).ranges(1000, 1, [&](std::size_t b, std::size_t e) {
+        ++calls; // not atomic: one thread only
+        CHECK(b == 0);
+        CHECK(e == 1000);
+    });
+    CHECK(calls == 1);
+    CHECK_THROWS_AS(Parallel(2).each(100, 1, [](std::size_t i) {
+        if (i == 57) throw ArgumentError("from a task");
+    }), ArgumentError);
+}
+
+TEST_CASE("parallel: tile builds and refits are bit-identical for 1, 2 and 3 threads", "[parallel][tiles]") {
+    // Extraordinary vertices and boundaries (Spot), N-gons with T-junctions and mixed sizes
+    // (catmark_nonquads at k = 3 with every fourth quad larger is refused at T-junctions, so
+    // the mixed sizes come from the pinned-quad rule), creases (the bishop).
+    for (const char* name : {"spot_control_mesh", "catmark_nonquads", "catmark_bishop"}) {
+        INFO(name);
+        const ControlMesh mesh = name == std::string("spot_control_mesh") ? ControlMesh::fromObjFile(dmtest::dataPath("spot_control_mesh.obj"))
+                                                                          : dmtest::shape(name);
+        std::vector<int> k = uniformTileSizes(mesh, 3);
+        const std::vector<char> pinned = quadsPinnedByNonQuads(mesh);
+        bool mixed = false;
+        for (int f = 0, t = 0; f < mesh.base().GetNumFaces(); ++f) {
+            const int n = mesh.base().GetFaceVertices(f).size();
+            if (n == 4 && !pinned[static_cast<std::size_t>(f)] && f % 3 == 0) {
+                k[static_cast<std::size_t>(t)] = 4;
+                mixed = true;
+            }
+            t += n == 4 ? 1 : n;
+        }
+        if (name != std::string("catmark_nonquads")) CHECK(mixed); // there every quad touches an N-gon
+        BuildOptions one;
+        one.threads = 1;
+        one.filter = MipFilter::BWavelet;
+        TileFitter serial(mesh, k, dmtest::roughSource, one);
+        // A converged fit (mixed sizes leave ~1e-8 where rings are extrapolated, test_tiles.cpp).
+        REQUIRE(serial.report().maxResidualAwayFromConstraints < 1e-6);
+        for (int threads : {2, 3}) {
+            BuildOptions o = one;
+            o.threads = threads;
+            TileFitter par(mesh, k, dmtest::roughSource, o);
+            CHECK(sameTiles(serial.tiles(), par.tiles()));
+            CHECK(serial.report().sweeps == par.report().sweeps);
+            CHECK(serial.report().maxResidual == par.report().maxResidual);
+            // An edit of two faces: the same changed tiles, the same coefficients.
+            const DisplacementFunction edited = [](int f, double u, double v) { return dmtest::roughSource(f, u, v) + (f == 1 ? 0.2 * u * v : 0.0); };
+            TileFitter a(mesh, k, dmtest::roughSource, one);
+            const std::vector<int> ca = a.refit({1, 2}, edited);
+            const std::vector<int> cb = par.refit({1, 2}, edited);
+            CHECK(ca == cb);
+            CHECK(sameTiles(a.tiles(), par.tiles()));
+        }
+    }
+}
+
+TEST_CASE("parallel: the first non-finite sample is reported whatever the thread count", "[parallel][tiles]") {
+    const ControlMesh mesh = dmtest::shape("catmark_cube");
+    const DisplacementFunction bad = [](int f, double u, double) { return f >= 3 && u > 0.5 ? std::nan("") : 0.0; };
+    for (int threads : {1, 2}) {
+        BuildOptions o;
+        o.threads = threads;
+        CHECK_THROWS_WITH(buildTiles(mesh, uniformTileSizes(mesh, 2), bad, o), Catch::Contains("at Ptex face 3, (u, v) = (0.625"));
+    }
+    BuildOptions o;
+    o.threads = -2;
+    CHECK_THROWS_WITH(buildTiles(mesh, uniformTileSizes(mesh, 2), dmtest::roughSource, o), Catch::Contains("thread count -2"));
+}
+
+TEST_CASE("parallel: auto normals are analysed only when asked for, the same on every count", "[parallel][normals]") {
+    const ControlMesh mesh = dmtest::shape("catmark_pole8");
+    const BaseSurface base(mesh);
+    // Displacement small enough that the bounds stay below their clamp at 1.
+    const TileSet tiles = buildTiles(mesh, uniformTileSizes(mesh, 4), [](int f, double u, double v) { return 0.02 * dmtest::roughSource(f, u, v); });
+    DisplacedSurfaceOptions o;
+    o.threads = 1;
+    // A tolerance between the faces' bounds, so that both outcomes occur.
+    std::vector<double> bounds;
+    const DisplacedSurface probe(base, tiles, o);
+    for (int f = 0; f < base.faceCount(); ++f) bounds.push_back(probe.autoBound(f));
+    std::sort(bounds.begin(), bounds.end());
+    o.autoTolerance = std::asin(bounds[bounds.size() / 2]);
+    const DisplacedSurface a(base, tiles, o);
+    CHECK_FALSE(a.autoAnalysed());
+    (void)a.evaluate<double>(0, 0.3, 0.4, NormalMode::Accurate);
+    (void)a.evaluate<double>(0, 0.3, 0.4, NormalMode::Approximate);
+    CHECK_FALSE(a.autoAnalysed()); // the other modes never need it
+    (void)a.evaluate<double>(0, 0.3, 0.4, NormalMode::Auto);
+    CHECK(a.autoAnalysed());
+    o.threads = 3;
+    const DisplacedSurface b(base, tiles, o);
+    REQUIRE(a.autoAccurateCount() > 0); // the case has faces on both sides of the tolerance
+    REQUIRE(a.autoAccurateCount() < base.faceCount());
+    CHECK(a.autoFaces() == b.autoFaces());
+    for (int f = 0; f < base.faceCount(); ++f) CHECK(a.autoBound(f) == b.autoBound(f));
+    o.threads = -1;
+    CHECK_THROWS_WITH(DisplacedSurface(base, tiles, o), Catch::Contains("thread count -1"));
+}
+
+TEST_CASE("parallel: tessellations are bit-identical for 1, 2 and 3 threads", "[parallel][tessellate]") {
+    for (const char* name : {"catmark_nonquads", "catmark_bishop", "catmark_dart_edgecorner"}) {
+        INFO(name);
+        const ControlMesh mesh = dmtest::shape(name);
+        const BaseSurface base(mesh);
+        const TileSet tiles = buildTiles(mesh, uniformTileSizes(mesh, 4), dmtest::roughSource);
+        const DisplacedSurface surface(base, tiles);
+        TessellateOptions o;
+        o.normals = NormalMode::Auto;
+        o.mips = MipSelection::TessFactor;
+        o.threads = 1;
+        const TessFactors factors = uniformTessFactors(base, 7.3);
+        const TriangleMesh serial = tessellate(surface, factors, o);
+        REQUIRE(serial.triangleCount() > 1000);
+        for (int threads : {2, 3}) {
+            o.threads = threads;
+            CHECK(sameMesh(serial, tessellate(surface, factors, o)));
+        }
+    }
+}
+
+TEST_CASE("parallel: mesostructure maps are bit-identical for 1, 2 and 3 threads", "[parallel][meso]") {
+    const MesoHeightField hf = dmtest::hardField(16, 12, 8);
+    const ConeSet cones{4, 2, true, false};
+    const DirectionalDistanceMap d1 = buildDdm(hf, cones, 2, 0, 1);
+    const DistanceMap m1 = buildDistanceMap(hf, 4, 1);
+    for (int threads : {2, 3}) {
+        CHECK(sameBits(d1.d, buildDdm(hf, cones, 2, 0, threads).d));
+        CHECK(sameBits(m1.d, buildDistanceMap(hf, 4, threads).d));
+    }
+    std::vector<glm::dvec3> v;
+    std::vector<std::array<int, 3>> t;
+    appendUvSphere({4, 4, 3}, 2.5, 12, v, t);
+    const MesoSolid solid = mesoSolidFromMesh(v, t, 8, 8, 8);
+    const DirectionalDistanceMap s1 = buildSolidDdm(solid, cones, 0, 1);
+    CHECK(sameBits(s1.d, buildSolidDdm(solid, cones, 0, 3).d));
+    CHECK_THROWS_WITH(buildDdm(hf, cones, 2, 0, -1), Catch::Contains("thread count -1"));
+}
+
+TEST_CASE("parallel: the comparison-only cone test contains the atan2 one", "[parallel][meso]") {
+    // Random boxes around the origin at every scale the builders make (sub-voxels to the
+    // floor's 1e9 box), against every cone of every supported set: wherever the atan2 form
+    // says a box may meet a cone, so must the comparisons (the map stays conservative); they
+    // may accept a few more boxes, within the slack, never many.
+    std::mt19937 rng(17);
+    std::uniform_real_distribution<double> pos(-6, 6), ext(0.01, 3);
+    long both = 0, onlyNew = 0, onlyOld = 0;
+    for (int m : {1, 2, 4, 8})
+        for (int n : {1, 2}) {
+            const ConeSet cones{m, n, true, false};
+            for (int c = 0; c < cones.count(); ++c) {
+                double az[2], el[2];
+                cones.range(c, az, el);
+                const detail::ConeTest test = detail::coneTest(cones, c);
+                for (int i = 0; i < 4000; ++i) {
+                    glm::dvec3 lo(pos(rng), pos(rng), pos(rng));
+                    // Boxes on the axes and the cone boundaries too: integers put corners there.
+                    if (i % 4 == 0) lo = glm::round(lo);
+                    const glm::dvec3 hi = lo + (i % 4 == 0 ? glm::round(glm::dvec3(ext(rng), ext(rng), ext(rng))) + 1.0
+                                                           : glm::dvec3(ext(rng), ext(rng), ext(rng)));
+                    const detail::Box box{lo, hi};
+                    const bool old = boxMeetsConeAtan2(box, az, el), now = detail::boxMeetsCone(box, test);
+                    both += old && now;
+                    onlyOld += old && !now;
+                    onlyNew += now && !old;
+                }
+            }
+        }
+    CHECK(onlyOld == 0);
+    CHECK(both > 10000);
+    CHECK(onlyNew <= both / 1000); // boundary cases within 1e-6 rad only
+}
+
+} // namespace dmtest_parallel
