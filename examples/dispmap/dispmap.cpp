@@ -537,9 +537,8 @@ int main(int argc, char** argv) {
     // One thread count for every parallel stage of every command (the library's entry points
     // take theirs in their options; 0 there means what this allows).
     int threads = 0;
-    app.add_option("--threads", threads, "threads of every parallel stage (0: all cores; 1: one, the calling thread); also "
-                                         "accepted after the command");
-    app.fallthrough();
+    const char* threadsHelp = "threads of every parallel stage (0: all cores; 1: one, the calling thread)";
+    app.add_option("--threads", threads, threadsHelp);
     bool quick = false;
     auto* demoCmd = app.add_subcommand("demo", "build the embedded default tile set and print its figures");
     demoCmd->add_flag("--quick", quick, "short benchmark runs");
@@ -685,6 +684,9 @@ int main(int argc, char** argv) {
     bakeCmd->add_option("--csv", ba.csv, "with --table: also write it as CSV");
     bakeCmd->add_option("--dense-dir", ba.denseDir, "with --table: folder of the dense meshes");
     bakeCmd->add_option("--skeleton-dir", ba.skeletonDir, "with --table: folder of their skeletons (<stem>.json)");
+    // --threads after the command too (bake has its own, with the same meaning).
+    for (CLI::App* sub : app.get_subcommands({}))
+        if (sub != bakeCmd) sub->add_option("--threads", threads, threadsHelp);
     CLI11_PARSE(app, argc, argv);
     try {
         checkThreads(threads, "--threads");

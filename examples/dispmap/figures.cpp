@@ -474,11 +474,13 @@ template <typename real> void BM_TileEvaluate(benchmark::State& state) {
 BENCHMARK(BM_TileEvaluate<float>);
 BENCHMARK(BM_TileEvaluate<double>);
 
-// Fit + mips for the default mesh: throughput in samples (texels of the finest levels).
+// Fit + mips for the default mesh on one thread: throughput in samples (texels of the finest
+// levels) per core (bench --only cores has the all-cores figures).
 void BM_BuildTiles(benchmark::State& state) {
     const ControlMesh mesh = defaultMesh();
     const std::vector<int> k = uniformTileSizes(mesh, static_cast<int>(state.range(0)));
     BuildOptions o;
+    o.threads = 1;
     o.filter = state.range(1) ? MipFilter::BWavelet : MipFilter::Haar;
     std::int64_t samples = 0;
     for (int kk : k) samples += std::int64_t(1) << (2 * kk);

@@ -305,7 +305,17 @@ class Tessellator {
     };
     struct Build;
     double segmentFactor(int a, int b) const;
-    void tile(Build& b, int t) const;
+    /// The canonical points (0..n) of the segment between vertex ids lo < hi.
+    std::vector<double> segmentSpacing(int lo, int hi) const { return edgeSpacing(segmentFactor(lo, hi), options_.spacing); }
+    /// Serial, in tile order: gives tile t its vertex ids (corners and T-junction midpoints it
+    /// is the first to touch, the interior points of the segments it is the first to reach, its
+    /// inner grid) and the first index of its triangles; writes the pending entries of corners
+    /// and midpoints. The ids are those of one pass over the tiles making every vertex as it
+    /// meets it, whatever the thread count of emit().
+    void plan(Build& b, int t) const;
+    /// Parallel over tiles: tile t's segment and grid points (those it owns) and its triangles,
+    /// at the places plan() gave them.
+    void emit(Build& b, int t) const;
 
     const DisplacedSurface* surface_;
     TessFactors factors_;
@@ -317,12 +327,33 @@ class Tessellator {
 struct Tessellator::Build {
     TriangleMesh mesh;
     std::vector<Pending> pending;
-    std::vector<int> corner;                                       // vertex id -> index
-    std::unordered_map<std::uint64_t, std::vector<int>> segments;  // (lo, hi) -> indices, lo to hi
+    std::vector<int> corner; // vertex id -> index
+    /// A segment's interior points: n - 1 indices from `first` in canonical order, made by
+    /// tile `owner` (in its frame).
+    struct Segment {
+        int first = 0, n = 0, owner = -1;
+    };
+    std::unordered_map<std::uint64_t, Segment> segments; // (lo, hi) -> its points
+    struct TilePlan {
+        int grid = 0;          ///< first index of the inner grid's points
+        std::size_t triangles = 0; ///< first index of the tile's triangles
+        bool allOne = false;   ///< two triangles between the corners, no grid
+        int nu = 0, nv = 0;    ///< inner grid segments
+    };
+    std::vector<TilePlan> tiles;
+    int count = 0; // indices given so far
+    std::size_t triangleCount = 0;
     int add(int face, glm::dvec2 uv) {
         pending.push_back({face, uv});
-        return static_cast<int>(pending.size()) - 1;
+        return count++;
     }
+    int reserve(int n) {
+        const int first = count;
+        count += n;
+        pending.resize(static_cast<std::size_t>(count));
+        return first;
+    }
+    static std::uint64_t key(int lo, int hi) { return static_cast<std::uint64_t>(lo) << 32 | static_cast<std::uint32_t>(hi); }
 };
 
 inline Tessellator::Tessellator(const DisplacedSurface& surface, TessFactors factors, TessellateOptions options)
@@ -402,109 +433,137 @@ inline int Tessellator::tJunctionMidpoint(int t, int e) const {
     return s0 == topo.cornerVertex(t, e) ? s1 : s0;
 }
 
-inline void Tessellator::tile(Build& b, int t) const {
+namespace detail {
+/// (u, v) of tile edge e at edge parameter y (0 at corner e, 1 at corner e + 1).
+inline glm::dvec2 tileEdgeUV(int e, double y) {
+    switch (e) {
+    case 0: return glm::dvec2(y, 0.0);
+    case 1: return glm::dvec2(1.0, y);
+    case 2: return glm::dvec2(1.0 - y, 1.0);
+    default: return glm::dvec2(0.0, 1.0 - y);
+    }
+}
+} // namespace detail
+
+inline void Tessellator::plan(Build& b, int t) const {
     const TileTopology& topo = surface_->base().topology();
-    // (u, v) of edge e at edge parameter y (0 at corner e, 1 at corner e + 1).
-    auto edgeUV = [](int e, double y) {
-        switch (e) {
-        case 0: return glm::dvec2(y, 0.0);
-        case 1: return glm::dvec2(1.0, y);
-        case 2: return glm::dvec2(1.0 - y, 1.0);
-        default: return glm::dvec2(0.0, 1.0 - y);
-        }
-    };
-    auto cornerIndex = [&](int c) {
+    Build::TilePlan& tp = b.tiles[static_cast<std::size_t>(t)];
+    for (int c = 0; c < 4; ++c) {
         int& at = b.corner[static_cast<std::size_t>(topo.cornerVertex(t, c))];
         if (at < 0) at = b.add(t, TileTopology::cornerUV(c));
-        return at;
+    }
+    std::array<std::uint64_t, 4> n{};
+    auto segment = [&](int A, int B) {
+        const int lo = std::min(A, B), hi = std::max(A, B);
+        const int segs = static_cast<int>(detail::spacingSegments(segmentFactor(lo, hi), options_.spacing));
+        auto [it, fresh] = b.segments.try_emplace(Build::key(lo, hi));
+        if (fresh) it->second = Build::Segment{b.reserve(segs - 1), segs, t};
+        return static_cast<std::uint64_t>(segs);
     };
+    for (int e = 0; e < 4; ++e) {
+        const int A = topo.cornerVertex(t, e), B = topo.cornerVertex(t, e + 1);
+        if (const int M = tJunctionMidpoint(t, e); M >= 0) {
+            int& cM = b.corner[static_cast<std::size_t>(M)];
+            if (cM < 0) cM = b.add(t, detail::tileEdgeUV(e, 0.5));
+            n[static_cast<std::size_t>(e)] = segment(A, M) + segment(M, B);
+        } else {
+            n[static_cast<std::size_t>(e)] = segment(A, B);
+        }
+    }
+    const glm::dvec2 inner = innerFactors(t);
+    tp.allOne = options_.spacing == Spacing::Integer && inner.x <= 1.0 && inner.y <= 1.0;
+    for (std::uint64_t k : n) tp.allOne = tp.allOne && k == 1;
+    tp.triangles = b.triangleCount;
+    if (tp.allOne) {
+        b.triangleCount += 2;
+        return;
+    }
+    tp.nu = static_cast<int>(std::max<std::uint64_t>(detail::spacingSegments(std::max(inner.x, 1.0), options_.spacing), 2));
+    tp.nv = static_cast<int>(std::max<std::uint64_t>(detail::spacingSegments(std::max(inner.y, 1.0), options_.spacing), 2));
+    tp.grid = b.reserve((tp.nu - 1) * (tp.nv - 1));
+    const std::uint64_t nu = static_cast<std::uint64_t>(tp.nu), nv = static_cast<std::uint64_t>(tp.nv);
+    b.triangleCount += static_cast<std::size_t>(2 * (nu - 2) * (nv - 2) + (n[0] + nu - 2) + (n[1] + nv - 2) + (n[2] + nu - 2) + (n[3] + nv - 2));
+}
+
+inline void Tessellator::emit(Build& b, int t) const {
+    const TileTopology& topo = surface_->base().topology();
+    const Build::TilePlan& tp = b.tiles[static_cast<std::size_t>(t)];
+    auto cornerId = [&](int vertex) { return b.corner[static_cast<std::size_t>(vertex)]; };
 
     // Points of segment (A, B) on edge e, for edge parameters y0 (at A) to y1 (at B),
-    // appended to `out` without the last one (B).
-    auto segment = [&](int e, int A, int B, int cA, int cB, double y0, double y1, std::vector<Point>& out) {
+    // appended to `out` without the last one (B); the owner writes the interior points.
+    auto segment = [&](int e, int A, int B, double y0, double y1, std::vector<Point>& out) {
         const int lo = std::min(A, B), hi = std::max(A, B);
-        const std::vector<double> x = edgeSpacing(segmentFactor(lo, hi), options_.spacing);
+        const std::vector<double> x = segmentSpacing(lo, hi);
         const std::size_t n = x.size() - 1;
         auto yAt = [&](std::size_t i) { // my edge parameter of canonical point i
             const double s = A == lo ? x[i] : 1.0 - x[i];
             return y0 == 0.0 && y1 == 1.0 ? s : y0 + (y1 - y0) * s;
         };
-        const std::uint64_t key = static_cast<std::uint64_t>(lo) << 32 | static_cast<std::uint32_t>(hi);
-        auto it = b.segments.find(key);
-        if (it == b.segments.end()) {
-            std::vector<int> ids(n + 1);
-            // Corners belong to the vertex ids: create them from this tile if new.
-            for (std::size_t i = 1; i < n; ++i) ids[i] = b.add(t, edgeUV(e, yAt(i)));
-            it = b.segments.emplace(key, std::move(ids)).first;
-        }
-        std::vector<int>& ids = it->second;
-        ids[A == lo ? 0 : n] = cA;
-        ids[A == lo ? n : 0] = cB;
+        const Build::Segment& seg = b.segments.at(Build::key(lo, hi));
+        if (seg.owner == t)
+            for (std::size_t i = 1; i < n; ++i)
+                b.pending[static_cast<std::size_t>(seg.first) + i - 1] = Pending{t, detail::tileEdgeUV(e, yAt(i))};
+        auto id = [&](std::size_t i) { return i == 0 ? cornerId(lo) : i == n ? cornerId(hi) : seg.first + static_cast<int>(i) - 1; };
         for (std::size_t j = 0; j < n; ++j) {
             const std::size_t i = A == lo ? j : n - j; // canonical index of my j-th point
             const double y = j == 0 ? y0 : yAt(i);
-            out.push_back({ids[i], edgeUV(e, y), y});
+            out.push_back({id(i), detail::tileEdgeUV(e, y), y});
         }
     };
 
     std::array<std::vector<Point>, 4> edges;
-    std::array<int, 4> corners{};
-    for (int c = 0; c < 4; ++c) corners[static_cast<std::size_t>(c)] = cornerIndex(c);
     for (int e = 0; e < 4; ++e) {
         std::vector<Point>& pts = edges[static_cast<std::size_t>(e)];
         const int A = topo.cornerVertex(t, e), B = topo.cornerVertex(t, e + 1);
-        const int cA = corners[static_cast<std::size_t>(e)], cB = corners[static_cast<std::size_t>((e + 1) & 3)];
         if (const int M = tJunctionMidpoint(t, e); M >= 0) {
-            int& cM = b.corner[static_cast<std::size_t>(M)];
-            if (cM < 0) cM = b.add(t, edgeUV(e, 0.5));
-            segment(e, A, M, cA, cM, 0.0, 0.5, pts);
-            segment(e, M, B, cM, cB, 0.5, 1.0, pts);
+            segment(e, A, M, 0.0, 0.5, pts);
+            segment(e, M, B, 0.5, 1.0, pts);
         } else {
-            segment(e, A, B, cA, cB, 0.0, 1.0, pts);
+            segment(e, A, B, 0.0, 1.0, pts);
         }
-        pts.push_back({cB, TileTopology::cornerUV(e + 1), 1.0});
+        pts.push_back({cornerId(B), TileTopology::cornerUV(e + 1), 1.0});
     }
 
-    auto emit = [&](const Point& p0, const Point& p1, const Point& p2) {
-        b.mesh.triangles.emplace_back(p0.id, p1.id, p2.id);
-        b.mesh.triangleFaces.push_back(t);
-        b.mesh.triangleUVs.push_back({p0.uv, p1.uv, p2.uv});
+    std::size_t tri = tp.triangles;
+    TriangleMesh& mesh = b.mesh;
+    auto put = [&](const Point& p0, const Point& p1, const Point& p2) {
+        mesh.triangles[tri] = glm::ivec3(p0.id, p1.id, p2.id);
+        mesh.triangleFaces[tri] = t;
+        mesh.triangleUVs[tri] = {p0.uv, p1.uv, p2.uv};
+        ++tri;
     };
 
-    const glm::dvec4 ef = edgeFactors(t);
-    const glm::dvec2 inner = kern::dmInnerTessFactors(ef);
-    bool allOne = options_.spacing == Spacing::Integer && inner.x <= 1.0 && inner.y <= 1.0;
-    for (int e = 0; e < 4; ++e) allOne = allOne && edges[static_cast<std::size_t>(e)].size() == 2;
-    if (allOne) {
-        const Point& p0 = edges[0][0];
-        const Point& p1 = edges[1][0];
-        const Point& p2 = edges[2][0];
-        const Point& p3 = edges[3][0];
-        emit(p0, p1, p2);
-        emit(p0, p2, p3);
+    if (tp.allOne) {
+        put(edges[0][0], edges[1][0], edges[2][0]);
+        put(edges[0][0], edges[2][0], edges[3][0]);
         return;
     }
+    const glm::dvec2 inner = innerFactors(t);
     std::vector<double> xu = edgeSpacing(std::max(inner.x, 1.0), options_.spacing);
     std::vector<double> xv = edgeSpacing(std::max(inner.y, 1.0), options_.spacing);
     if (xu.size() < 3) xu = {0.0, 0.5, 1.0};
     if (xv.size() < 3) xv = {0.0, 0.5, 1.0};
-    const int nu = static_cast<int>(xu.size()) - 1, nvv = static_cast<int>(xv.size()) - 1;
-    // Inner grid points (i, j), 1 <= i < nu, 1 <= j < nv.
-    std::vector<Point> grid(static_cast<std::size_t>((nu - 1) * (nvv - 1)));
-    auto g = [&](int i, int j) -> Point& { return grid[static_cast<std::size_t>((j - 1) * (nu - 1) + (i - 1))]; };
+    const int nu = tp.nu, nvv = tp.nv;
+    // Inner grid points (i, j), 1 <= i < nu, 1 <= j < nv, numbered row by row from tp.grid.
+    auto g = [&](int i, int j) {
+        const glm::dvec2 uv(xu[static_cast<std::size_t>(i)], xv[static_cast<std::size_t>(j)]);
+        return Point{tp.grid + (j - 1) * (nu - 1) + (i - 1), uv, 0.0};
+    };
     for (int j = 1; j < nvv; ++j)
         for (int i = 1; i < nu; ++i) {
-            const glm::dvec2 uv(xu[static_cast<std::size_t>(i)], xv[static_cast<std::size_t>(j)]);
-            g(i, j) = Point{b.add(t, uv), uv, 0.0};
+            const Point p = g(i, j);
+            b.pending[static_cast<std::size_t>(p.id)] = Pending{t, p.uv};
         }
     for (int j = 1; j + 1 < nvv; ++j)
         for (int i = 1; i + 1 < nu; ++i) {
-            emit(g(i, j), g(i + 1, j), g(i + 1, j + 1));
-            emit(g(i, j), g(i + 1, j + 1), g(i, j + 1));
+            put(g(i, j), g(i + 1, j), g(i + 1, j + 1));
+            put(g(i, j), g(i + 1, j + 1), g(i, j + 1));
         }
     // Zippers: the inner ring side e runs in edge e's direction.
+    std::vector<Point> q;
     for (int e = 0; e < 4; ++e) {
-        std::vector<Point> q;
+        q.clear();
         auto push = [&](int i, int j, double along) {
             Point p = g(i, j);
             p.along = along;
@@ -524,10 +583,10 @@ inline void Tessellator::tile(Build& b, int t) const {
             const bool advanceEdge =
                 j + 1 >= q.size() || (i + 1 < p.size() && p[i + 1].along <= q[j + 1].along + 1e-12);
             if (advanceEdge) {
-                emit(p[i], p[i + 1], q[j]);
+                put(p[i], p[i + 1], q[j]);
                 ++i;
             } else {
-                emit(p[i], q[j + 1], q[j]);
+                put(p[i], q[j + 1], q[j]);
                 ++j;
             }
         }
@@ -566,8 +625,9 @@ inline TessellationSize Tessellator::estimate() const {
         out.vertices += (nu - 1) * (nv - 1) + n[0] + n[1] + n[2] + n[3];
     }
     // Per vertex: its pending entry (24 bytes) and the mesh's position, normal, face, uv and
-    // resolution (76); per triangle: indices, face and corner uvs (64). Growing vectors hold up
-    // to twice what they use.
+    // resolution (76); per triangle: indices, face and corner uvs (64). tessellate() sizes its
+    // arrays from these counts (none grows); the factor 2 on the first two is a margin (the
+    // vertex count is an upper bound, and a caller writing the mesh out copies parts of it).
     out.bytes = 2 * (out.vertices * 24 + out.triangles * 64) + out.vertices * 76;
     return out;
 }
@@ -582,15 +642,21 @@ inline TriangleMesh Tessellator::tessellate() const {
                             std::to_string(options_.maxBytes >> 20) + " MiB: lower the factors or the maximum factor");
     Build b;
     b.corner.assign(static_cast<std::size_t>(topo.vertexCount()), -1);
-    // The counts are known: no vector grows (and copies) while the tiles are made.
+    b.tiles.resize(static_cast<std::size_t>(topo.tileCount()));
     b.pending.reserve(static_cast<std::size_t>(size.vertices));
-    b.mesh.triangles.reserve(static_cast<std::size_t>(size.triangles));
-    b.mesh.triangleFaces.reserve(static_cast<std::size_t>(size.triangles));
-    b.mesh.triangleUVs.reserve(static_cast<std::size_t>(size.triangles));
     b.segments.reserve(static_cast<std::size_t>(2 * topo.tileCount() + 8));
+    std::vector<int> live;
     for (int t = 0; t < topo.tileCount(); ++t)
-        if (!base.isHole(t)) tile(b, t);
-
+        if (!base.isHole(t)) {
+            plan(b, t);
+            live.push_back(t);
+        }
+    // Every triangle's place is known: the tiles fill theirs in parallel.
+    b.mesh.triangles.resize(b.triangleCount);
+    b.mesh.triangleFaces.resize(b.triangleCount);
+    b.mesh.triangleUVs.resize(b.triangleCount);
+    const Parallel par(options_.threads);
+    par.each(live.size(), 8, [&](std::size_t i) { emit(b, live[i]); });
     TriangleMesh& m = b.mesh;
     const std::size_t n = b.pending.size();
     m.positions.resize(n);
@@ -601,7 +667,7 @@ inline TriangleMesh Tessellator::tessellate() const {
     if (options_.normals == NormalMode::Auto) (void)surface_->autoFaces(); // the analysis, once, before the loop
     // Vertices are independent: each writes its own slot.
     std::vector<char> finite(n, 1);
-    Parallel(options_.threads).each(n, 256, [&](std::size_t i) {
+    par.each(n, 256, [&](std::size_t i) {
         const Pending& p = b.pending[i];
         const double rho = resolution(p.face, p.uv.x, p.uv.y);
         const SurfaceSample<double> s = surface_->evaluate<double>(p.face, p.uv.x, p.uv.y, options_.normals, rho);

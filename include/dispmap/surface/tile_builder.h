@@ -446,8 +446,8 @@ class TileBuild {
         for (int t : tiles) thomas(k_[u(t)]);
         changes_.assign(tiles.size(), 0.0);
         par.ranges(tiles.size(), 8, [&](std::size_t begin, std::size_t end) {
-            std::vector<double> rhs;
-            for (std::size_t i = begin; i < end; ++i) changes_[i] = solveTile(samples, tiles[i], rhs);
+            std::vector<double> rhs, scratch;
+            for (std::size_t i = begin; i < end; ++i) changes_[i] = solveTile(samples, tiles[i], rhs, scratch);
         });
         double change = 0.0;
         for (double c : changes_) change = std::max(change, c);
@@ -456,7 +456,7 @@ class TileBuild {
 
     /// Solves tile t's (T x T) x = rhs with T = tridiag(1, 6, 1) (Thomas algorithm, with the
     /// factors of its size), writes the fit interior and returns its largest change.
-    double solveTile(const std::vector<std::vector<double>>& samples, int t, std::vector<double>& rhs) {
+    double solveTile(const std::vector<std::vector<double>>& samples, int t, std::vector<double>& rhs, std::vector<double>& scratch) {
         const int s = size(t, 0);
         const int w = s + 2;
         const std::vector<double>& d = data_[u(t)][0];
@@ -480,32 +480,41 @@ class TileBuild {
             R(1, j) -= left;
             R(s, j) -= right;
         }
-        // Columns (v): all of a row at once, forward then back.
-        for (int i = 0; i < s; ++i) rhs[u(i)] *= th.invBeta[0];
-        for (int j = 1; j < s; ++j) {
-            double* row = &rhs[u(j * s)];
-            const double* prev = &rhs[u((j - 1) * s)];
-            for (int i = 0; i < s; ++i) row[i] = (row[i] - prev[i]) * th.invBeta[u(j)];
-        }
-        for (int j = s - 1; j-- > 0;) {
-            double* row = &rhs[u(j * s)];
-            const double* next = &rhs[u((j + 1) * s)];
-            for (int i = 0; i < s; ++i) row[i] -= th.c[u(j + 1)] * next[i];
-        }
-        // Rows (u), each along itself, written to the fit interior.
+        // Columns (v), then rows (u) after a transpose: each pass eliminates along the slow
+        // index with the fast index innermost, so that its s independent lines run side by side
+        // (vectorised) instead of one after another.
+        tridiagonalLines(rhs.data(), s, th);
+        scratch.resize(u(s * s));
+        for (int j = 0; j < s; ++j)
+            for (int i = 0; i < s; ++i) scratch[u(i * s + j)] = rhs[u(j * s + i)];
+        tridiagonalLines(scratch.data(), s, th);
         double change = 0.0;
-        for (int j = 0; j < s; ++j) {
-            double* row = &rhs[u(j * s)];
-            row[0] *= th.invBeta[0];
-            for (int i = 1; i < s; ++i) row[i] = (row[i] - row[i - 1]) * th.invBeta[u(i)];
-            for (int i = s - 1; i-- > 0;) row[i] -= th.c[u(i + 1)] * row[i + 1];
+        for (int j = 0; j < s; ++j)
             for (int i = 0; i < s; ++i) {
                 double& x = fitAt(t, i + 1, j + 1);
-                change = std::max(change, std::abs(row[i] - x));
-                x = row[i];
+                const double solved = scratch[u(i * s + j)];
+                change = std::max(change, std::abs(solved - x));
+                x = solved;
             }
-        }
         return change;
+    }
+    /// Solves tridiag(1, 6, 1) along the rows index of an s x s block (row r at a + r s) for
+    /// all s columns at once: Thomas algorithm with the precomputed factors of size s.
+    struct Thomas;
+    static void tridiagonalLines(double* a, int s, const Thomas& th) {
+        for (int i = 0; i < s; ++i) a[i] *= th.invBeta[0];
+        for (int j = 1; j < s; ++j) {
+            double* row = a + static_cast<std::ptrdiff_t>(j) * s;
+            const double* prev = row - s;
+            const double ib = th.invBeta[u(j)];
+            for (int i = 0; i < s; ++i) row[i] = (row[i] - prev[i]) * ib;
+        }
+        for (int j = s - 1; j-- > 0;) {
+            double* row = a + static_cast<std::ptrdiff_t>(j) * s;
+            const double* next = row + s;
+            const double c = th.c[u(j + 1)];
+            for (int i = 0; i < s; ++i) row[i] -= c * next[i];
+        }
     }
     /// The Thomas factors of tridiag(1, 6, 1) of size 2^k: c_i = 1 / beta_(i-1) (i >= 1) and
     /// 1 / beta_i, with beta_0 = 6, beta_i = 6 - c_i.
