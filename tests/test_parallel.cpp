@@ -185,6 +185,46 @@ TEST_CASE("parallel: auto normals are analysed only when asked for, the same on 
     CHECK_THROWS_WITH(DisplacedSurface(base, tiles, o), Catch::Contains("thread count -1"));
 }
 
+TEST_CASE("parallel: evaluateBatch is evaluate() point for point, face by face, on any count", "[parallel][normals]") {
+    const ControlMesh mesh = dmtest::shape("catmark_hole_test1");
+    const BaseSurface base(mesh);
+    const TileSet tiles = buildTiles(mesh, uniformTileSizes(mesh, 3), dmtest::roughSource);
+    const DisplacedSurface surface(base, tiles);
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> uv(0, 1);
+    std::vector<SurfacePoint<double>> points;
+    int hole = -1;
+    for (int i = 0; i < 3000; ++i) {
+        const int f = static_cast<int>(rng() % static_cast<unsigned>(base.faceCount()));
+        if (base.isHole(f)) {
+            hole = f;
+            continue;
+        }
+        points.push_back({f, uv(rng), uv(rng)});
+    }
+    REQUIRE(hole >= 0); // the mesh has holes: they are refused below
+    for (NormalMode mode : {NormalMode::Approximate, NormalMode::Auto})
+        for (int threads : {1, 3}) {
+            std::vector<SurfaceSample<double>> out;
+            surface.evaluateBatch(points, mode, out, threads, 3.5);
+            REQUIRE(out.size() == points.size());
+            bool same = true;
+            for (std::size_t i = 0; i < points.size(); ++i) {
+                const SurfaceSample<double> e = surface.evaluate<double>(points[i].face, points[i].u, points[i].v, mode, 3.5);
+                same = same && std::memcmp(&e.position, &out[i].position, sizeof e.position) == 0 &&
+                       std::memcmp(&e.normal, &out[i].normal, sizeof e.normal) == 0 && e.accurate == out[i].accurate;
+            }
+            CHECK(same);
+        }
+    std::vector<SurfaceSample<double>> out(2);
+    std::vector<SurfacePoint<double>> bad = {points[0], {points[1].face, 1.5, 0.5}, {hole, 0.5, 0.5}};
+    CHECK_THROWS_WITH(surface.evaluateBatch(bad, NormalMode::Approximate, out), Catch::Contains("(1.500000, 0.500000)"));
+    CHECK(out.size() == 2); // nothing written
+    bad.erase(bad.begin() + 1);
+    CHECK_THROWS_WITH(surface.evaluateBatch(bad, NormalMode::Approximate, out), Catch::Contains("is a hole"));
+    CHECK_THROWS_WITH(surface.evaluateBatch(points, NormalMode::Approximate, out, -4), Catch::Contains("thread count -4"));
+}
+
 TEST_CASE("parallel: tessellations are bit-identical for 1, 2 and 3 threads", "[parallel][tessellate]") {
     for (const char* name : {"catmark_nonquads", "catmark_bishop", "catmark_dart_edgecorner"}) {
         INFO(name);

@@ -4,7 +4,9 @@
 // which now runs only when auto normals are asked for.
 #include "cores_table.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <cstring>
 #include <fstream>
 #include <functional>
@@ -125,6 +127,50 @@ void printCoresTable(std::ostream& out, const CoresTableArgs& a) {
     meso.identical = mesoEqual(meso1, mesoN);
     rows.push_back(meso);
 
+    // 5. Locality: random points on a tile set larger than the cache, evaluated in the order
+    //    given and face by face (evaluateBatch), on one thread.
+    const int kBig = a.quick ? 5 : 8;
+    const TileSet big = spotBrickTiles(spot, uvs, brick, kBig, 0);
+    std::size_t bigBytes = 0;
+    for (const Tile& t : big.tiles) bigBytes += t.coefficients.size() * sizeof(float);
+    const DisplacedSurface bigSurface(base, big, one);
+    std::vector<SurfacePoint<double>> points(a.quick ? 20000 : 400000);
+    std::uint64_t state = 0x9E3779B97F4A7C15ull;
+    auto next = [&] { // splitmix64: the same points on every machine
+        state += 0x9E3779B97F4A7C15ull;
+        std::uint64_t z = state;
+        z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+        z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+        return z ^ (z >> 31);
+    };
+    for (SurfacePoint<double>& p : points) {
+        p.face = static_cast<int>(next() % static_cast<std::uint64_t>(base.faceCount()));
+        p.u = static_cast<double>(next() >> 11) * 0x1.0p-53;
+        p.v = static_cast<double>(next() >> 11) * 0x1.0p-53;
+    }
+    std::vector<SurfaceSample<double>> given(points.size()), batched;
+    const double givenS = secondsOf([&] {
+        for (std::size_t i = 0; i < points.size(); ++i)
+            given[i] = bigSurface.evaluate<double>(points[i].face, points[i].u, points[i].v, NormalMode::Approximate);
+    });
+    const double batchS = secondsOf([&] { bigSurface.evaluateBatch(points, NormalMode::Approximate, batched, 1); });
+    // The tile lookups alone (TileSet::evaluateD1, the finest level), in the order given and
+    // face by face: the part of an evaluation that waits on memory.
+    std::vector<std::size_t> byFace(points.size());
+    for (std::size_t i = 0; i < byFace.size(); ++i) byFace[i] = i;
+    std::stable_sort(byFace.begin(), byFace.end(), [&](std::size_t x, std::size_t y) { return points[x].face < points[y].face; });
+    glm::dvec3 sinkGiven(0.0), sinkSorted(0.0);
+    const double tileGivenS = secondsOf([&] {
+        for (const SurfacePoint<double>& p : points) sinkGiven += big.evaluateD1(p.face, 0, glm::dvec2(p.u, p.v));
+    });
+    const double tileSortedS = secondsOf([&] {
+        for (std::size_t i : byFace) sinkSorted += big.evaluateD1(points[i].face, 0, glm::dvec2(points[i].u, points[i].v));
+    });
+    bool sameLookups = batched.size() == given.size();
+    for (std::size_t i = 0; sameLookups && i < given.size(); ++i)
+        sameLookups = std::memcmp(&given[i].position, &batched[i].position, sizeof(glm::dvec3)) == 0 &&
+                      std::memcmp(&given[i].normal, &batched[i].normal, sizeof(glm::dvec3)) == 0;
+
     out << "All cores against one thread, measured in one run (" << cores << " cores here; speed-up = 1-thread time / "
         << cores << "-thread time; identical: the two results compared bit for bit):\n\n";
     out << "| stage | work | 1 thread s | " << cores << " threads s | speed-up | identical |\n|---|---|---|---|---|---|\n";
@@ -142,6 +188,14 @@ void printCoresTable(std::ostream& out, const CoresTableArgs& a) {
     }
     out << "\nTile fit rate: " << samples << " samples in " << fixed(build.one, 3) << " s on one thread = "
         << fixed(static_cast<double>(samples) / build.one / 1e6, 2) << " M samples/s per core (sampling the map included).\n";
+    out << "Lookups: " << points.size() << " random points on Spot's 2^" << kBig << " tiles (" << fixed(static_cast<double>(bigBytes) / 1048576.0, 1)
+        << " MiB of texels), one thread: " << fixed(givenS / static_cast<double>(points.size()) * 1e9, 0)
+        << " ns a point in the order given, " << fixed(batchS / static_cast<double>(points.size()) * 1e9, 0)
+        << " ns face by face (evaluateBatch): " << fixed(givenS / std::max(batchS, 1e-9), 2) << "x, "
+        << (sameLookups ? "identical" : "DIFFERENT") << "; the tile lookups alone (evaluateD1): "
+        << fixed(tileGivenS / static_cast<double>(points.size()) * 1e9, 0) << " ns in the order given, "
+        << fixed(tileSortedS / static_cast<double>(points.size()) * 1e9, 0) << " ns face by face: "
+        << fixed(tileGivenS / std::max(tileSortedS, 1e-9), 2) << "x (sums " << (glm::length(sinkGiven - sinkSorted) < 1e-6 * glm::length(sinkGiven) + 1e-300 ? "agree" : "DIFFER") << ").\n";
     out << "Set-up of DisplacedSurface on Spot: " << fixed(construct * 1e3, 2)
         << " ms without the auto-normal analysis (which it ran every time before; " << fixed(analysis.one * 1e3, 1)
         << " ms on one thread, now only when auto normals are first used).\n";

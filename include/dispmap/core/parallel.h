@@ -62,16 +62,23 @@ class Parallel {
 
     /// body(begin, end) over [0, n) in ranges of about `grain` items (at least 1), in any order
     /// and on any thread; serially, in one call body(0, n). The body must follow the contract
-    /// above (disjoint writes), and may throw: the first exception is rethrown here.
+    /// above (disjoint writes), and may throw: an exception is rethrown here (which one, when
+    /// several tasks throw, depends on the schedule: callers that name an item in an error
+    /// catch per item and rethrow the first in order, as the tile build's sampling does).
     template <class Body> void ranges(std::size_t n, std::size_t grain, const Body& body) const {
         if (n == 0) return;
         if (serial() || n <= grain) {
             body(std::size_t{0}, n);
             return;
         }
+        // Isolated: while it waits, the calling thread runs only this loop's tasks, never an
+        // outer loop's (which could re-enter a std::call_once the caller is inside, as the lazy
+        // auto-normal analysis is).
         const auto loop = [&] {
-            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, grain < 1 ? 1 : grain),
-                              [&](const tbb::blocked_range<std::size_t>& r) { body(r.begin(), r.end()); });
+            tbb::this_task_arena::isolate([&] {
+                tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, grain < 1 ? 1 : grain),
+                                  [&](const tbb::blocked_range<std::size_t>& r) { body(r.begin(), r.end()); });
+            });
         };
         if (arena_)
             arena_->execute(loop);

@@ -59,13 +59,14 @@ inline constexpr std::uint64_t kMaxMesoBuildBytes = std::uint64_t{4} << 30;
 /// The peak memory of buildMesoMaps for a width x height x layers field and these options,
 /// estimated from the sizes alone (from above: the compressed DDM counted as large as the
 /// dense one): the dense and compressed DDM, the distance map with its per-layer transforms
-/// on two threads, heights and quadrics.
+/// on as many threads as o.threads allows (at most one per layer), heights and quadrics.
 inline std::uint64_t mesoBuildBytes(int width, int height, int layers, const MesoMapOptions& o) {
     const std::uint64_t texels = static_cast<std::uint64_t>(std::max(width, 0)) * static_cast<std::uint64_t>(std::max(height, 0));
     const std::uint64_t voxels = texels * static_cast<std::uint64_t>(std::max(layers, 0));
     const std::uint64_t S = static_cast<std::uint64_t>(std::clamp(o.distanceSubsamples, 1, 16));
     std::uint64_t bytes = 2 * 4 * texels; // the field, and its copy in the maps
-    if (o.distance) bytes += 4 * voxels + 8 * S * S * texels * (1 + 2 * 2); // map; fine heights; 2 threads x 2 transforms
+    const std::uint64_t running = static_cast<std::uint64_t>(std::clamp(o.threads == 0 ? allCores() : o.threads, 1, std::max(layers, 1)));
+    if (o.distance) bytes += 4 * voxels + 8 * S * S * texels * (1 + 2 * running); // map; fine heights; 2 transforms a running layer
     if (o.ddm) bytes += 2 * 4 * voxels * static_cast<std::uint64_t>(std::max(o.cones.count(), 1)); // dense + compressed (at most as big)
     if (o.quadrics) bytes += 48 * texels;
     return bytes;

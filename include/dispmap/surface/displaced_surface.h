@@ -76,6 +76,12 @@ template <typename real> struct SurfaceSample {
     bool accurate = false; ///< whether the Weingarten term was included
 };
 
+/// A point of the surface's domain: a Ptex face and (u, v) in it.
+template <typename real> struct SurfacePoint {
+    int face = 0;
+    real u = 0, v = 0;
+};
+
 struct DisplacedSurfaceOptions {
     /// Width of the band (in base-face edge lengths, (0, 1/2]) over which D fades to 0 towards
     /// infinitely sharp creases and corners, so that the faces on both sides of one meet
@@ -134,6 +140,15 @@ class DisplacedSurface {
     /// f, N_f and the rest at (face, u, v); throws as BaseSurface::evaluate, and for a NaN rho.
     template <typename real>
     SurfaceSample<real> evaluate(int face, real u, real v, NormalMode mode, real rho = real(kFinest)) const;
+
+    /// evaluate() at many points: out[i] is evaluate(points[i], mode, rho) bit for bit. The points
+    /// are visited face by face (a stable counting sort), so that each face's tile and patches
+    /// stay in cache while its points are evaluated, on `threads` threads (core/parallel.h).
+    /// Every point is checked first: ArgumentError for the first bad one in index order (face
+    /// out of range, a hole, (u, v) outside [0, 1]^2 or not finite, a NaN rho), nothing written.
+    template <typename real>
+    void evaluateBatch(const std::vector<SurfacePoint<real>>& points, NormalMode mode, std::vector<SurfaceSample<real>>& out,
+                       int threads = 0, real rho = real(kFinest)) const;
 
   private:
     /// The checks of displacement() (evaluate leaves (u, v) and holes to BaseSurface).
@@ -263,6 +278,29 @@ SurfaceSample<real> DisplacedSurface::evaluate(int face, real u, real v, NormalM
     out.displacement = d1;
     out.accurate = accurate;
     return out;
+}
+
+template <typename real>
+void DisplacedSurface::evaluateBatch(const std::vector<SurfacePoint<real>>& points, NormalMode mode, std::vector<SurfaceSample<real>>& out,
+                                     int threads, real rho) const {
+    checkThreads(threads, "evaluateBatch");
+    const int faces = base_->faceCount();
+    // Checked in index order before anything is evaluated; then counted per face.
+    std::vector<std::size_t> start(static_cast<std::size_t>(faces) + 1, 0);
+    for (const SurfacePoint<real>& p : points) {
+        check(p.face, p.u, p.v, rho, true);
+        if (base_->isHole(p.face)) throw ArgumentError("evaluateBatch: face " + std::to_string(p.face) + " is a hole (no surface to evaluate)");
+        ++start[static_cast<std::size_t>(p.face) + 1];
+    }
+    for (std::size_t f = 0; f < static_cast<std::size_t>(faces); ++f) start[f + 1] += start[f];
+    std::vector<std::size_t> order(points.size());
+    for (std::size_t i = 0; i < points.size(); ++i) order[start[static_cast<std::size_t>(points[i].face)]++] = i;
+    if (mode == NormalMode::Auto) (void)autoAnalysis(); // once, before the loop
+    out.resize(points.size());
+    Parallel(threads).each(order.size(), 256, [&](std::size_t j) {
+        const SurfacePoint<real>& p = points[order[j]];
+        out[order[j]] = evaluate<real>(p.face, p.u, p.v, mode, rho);
+    });
 }
 
 inline DisplacedSurface::DisplacedSurface(const BaseSurface& base, const TileSet& tiles, DisplacedSurfaceOptions options)

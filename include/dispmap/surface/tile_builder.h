@@ -39,6 +39,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <exception>
 #include <functional>
 #include <memory>
 #include <string>
@@ -262,7 +263,7 @@ class TileBuild {
 
     /// Computes the levels of every tile from the fitted finest interiors: interiors (fit or
     /// mip filter), the corner constraint, then edge and corner rings, resolution by resolution
-    /// from the finest. `all` = false stops after the finest resolution any tile's level 0 has
+    /// from the finest. `all` = false stops after the coarsest resolution any tile's level 0 has
     /// (what the fit's sweeps read: a resolution reads only data of its own resolution, so the
     /// levels it computes are those all = true computes). Each phase runs over tiles (or
     /// vertices) in parallel; every task writes only its own tile's level (or its vertex's
@@ -303,17 +304,10 @@ class TileBuild {
                     if (int m = levelAt(t, g); m >= 0) cornerInterior(t, m, c) = sum / count;
             });
             par.each(active.size(), 16, [&](std::size_t i) { fillEdgeRings(active[i].first, active[i].second, g); });
-            // Corners at constrained vertices first: they rewrite ring texels next to the corner
-            // that a neighbour's T-junction corner reads.
+            // Each tile's corners in order (a corner's extrapolation reads ring texels its tile's
+            // constrained corners rewrite); the reads across tiles are interior texels only.
             par.each(active.size(), 16, [&](std::size_t i) {
-                for (int c = 0; c < 4; ++c)
-                    if (topo_.kind(topo_.cornerVertex(active[i].first, c)) == TileTopology::VertexKind::Constrained)
-                        fillCorner(active[i].first, active[i].second, c, g);
-            });
-            par.each(active.size(), 16, [&](std::size_t i) {
-                for (int c = 0; c < 4; ++c)
-                    if (topo_.kind(topo_.cornerVertex(active[i].first, c)) != TileTopology::VertexKind::Constrained)
-                        fillCorner(active[i].first, active[i].second, c, g);
+                for (int c = 0; c < 4; ++c) fillCorner(active[i].first, active[i].second, c, g);
             });
         }
     }
@@ -680,14 +674,23 @@ inline TileFitter::TileFitter(const ControlMesh& mesh, const std::vector<int>& k
 inline void TileFitter::sample(const std::vector<int>& faces, const DisplacementFunction& source,
                                std::vector<std::vector<double>>& out) const {
     out.resize(faces.size());
+    // A source may throw (a scene's checks name the face): the exception of the first face in
+    // order is the one rethrown, whichever task met its own first.
+    std::vector<std::exception_ptr> failed(faces.size());
     Parallel(options_.threads).each(faces.size(), 4, [&](std::size_t f) {
         const int t = faces[f];
         const int s = 1 << k_[static_cast<std::size_t>(t)];
         std::vector<double>& y = out[f];
         y.resize(static_cast<std::size_t>(s * s));
-        for (int j = 0; j < s; ++j)
-            for (int i = 0; i < s; ++i) y[static_cast<std::size_t>(j * s + i)] = source(t, (i + 0.5) / s, (j + 0.5) / s);
+        try {
+            for (int j = 0; j < s; ++j)
+                for (int i = 0; i < s; ++i) y[static_cast<std::size_t>(j * s + i)] = source(t, (i + 0.5) / s, (j + 0.5) / s);
+        } catch (...) {
+            failed[f] = std::current_exception();
+        }
     });
+    for (const std::exception_ptr& e : failed)
+        if (e) std::rethrow_exception(e);
     for (std::size_t f = 0; f < faces.size(); ++f) {
         const int t = faces[f];
         const int s = 1 << k_[static_cast<std::size_t>(t)];
