@@ -3,9 +3,11 @@
 // distance to the nearest solid point reachable from ANY point of the voxel within the cone
 // (0 where the solid touches the voxel); the isotropic conservative map is the case of one
 // cone holding every direction. Min-filtered coarser levels keep the bound. GLM only.
+#include <algorithm>
 #include <array>
 #include <bit>
 #include <cstdint>
+#include <vector>
 
 #include "dispmap/meso/cones.h"
 #include "dispmap/meso/height_field.h"
@@ -106,6 +108,39 @@ inline double boxDistance(const Box& D) {
     const glm::dvec3 c = glm::clamp(glm::dvec3(0.0), D.lo, D.hi);
     return glm::length(c);
 }
+// One voxel's search for all cones at once (buildDdm, buildSolidDdm): per cone the smallest
+// distance over the boxes that may meet it. A box is tested only against the cones whose best
+// it could still beat, so each cone ends with what a search of its own would find.
+struct ConeSearch {
+    const std::vector<ConeTest>& tests;
+    std::array<double, kMaxCones> best{};
+    double worst = 0; // the largest best: boxes at least this far improve no cone
+
+    explicit ConeSearch(const std::vector<ConeTest>& t) : tests(t) {}
+    int count() const { return static_cast<int>(tests.size()); }
+    void reset(double cap) {
+        best.fill(cap);
+        worst = cap;
+    }
+    // The cones (a bit mask) that the box, at distance `dist`, may still improve.
+    std::uint32_t open(const Box& box, double dist) const {
+        std::uint32_t mask = 0;
+        if (dist >= worst) return mask;
+        for (int c = 0; c < count(); ++c)
+            if (dist < best[static_cast<std::size_t>(c)] && boxMeetsCone(box, tests[static_cast<std::size_t>(c)])) mask |= 1u << c;
+        return mask;
+    }
+    // Offers a box inside an open one to the cones of `mask`.
+    void offer(const Box& box, std::uint32_t mask) {
+        const double dist = boxDistance(box);
+        for (std::uint32_t rest = mask; rest != 0; rest &= rest - 1) {
+            const int c = std::countr_zero(rest);
+            if (dist < best[static_cast<std::size_t>(c)] && boxMeetsCone(box, tests[static_cast<std::size_t>(c)]))
+                best[static_cast<std::size_t>(c)] = dist;
+        }
+    }
+    void settle() { worst = *std::max_element(best.begin(), best.begin() + count()); }
+};
 } // namespace detail
 
 /// Builds the conservative DDM of a height field. The solid of column (i, j) lies inside the
@@ -161,42 +196,31 @@ inline DirectionalDistanceMap buildDdm(const MesoHeightField& hf, const ConeSet&
     // own would (boxes are only skipped when they cannot beat the cone's best).
     detail::parallelRows(hf.layers * hf.height, threads, [&](int row) {
         const int j = row % hf.height, k = row / hf.height;
-        std::array<double, kMaxCones> best;
+        detail::ConeSearch search(tests);
         for (int i = 0; i < hf.width; ++i) {
             if (k + 1 <= cellMin[static_cast<std::size_t>(j * hf.width + i)]) {
                 for (int c = 0; c < C; ++c) m.d[m.index(c, i, j, k)] = 0; // inside the solid
                 continue;
             }
-            best.fill(m.cap);
-            double worst = m.cap; // the largest best: rings farther than it improve no cone
+            search.reset(m.cap);
             const int maxRing = static_cast<int>(std::ceil(m.cap)) + 1;
             const auto visit = [&](int di, int dj) {
                 const int ci = i + di, cj = j + dj;
                 const std::size_t cell = static_cast<std::size_t>(detail::wrapIndex(cj, hf.height) * hf.width + detail::wrapIndex(ci, hf.width));
                 const detail::Box cellBox{{ci - (i + 1.0), cj - (j + 1.0), bottom - (k + 1.0)}, {ci + 1.0 - i, cj + 1.0 - j, cellTop[cell] - k}};
-                const double cellDist = detail::boxDistance(cellBox);
-                if (cellDist >= worst) return;
-                std::uint32_t open = 0; // the cones this column may still improve
-                for (int c = 0; c < C; ++c)
-                    if (cellDist < best[static_cast<std::size_t>(c)] && detail::boxMeetsCone(cellBox, tests[static_cast<std::size_t>(c)]))
-                        open |= 1u << c;
+                const std::uint32_t open = search.open(cellBox, detail::boxDistance(cellBox)); // the cones this column may improve
                 if (open == 0) return;
                 for (int b = 0; b < S; ++b)
                     for (int a = 0; a < S; ++a) {
                         const double x0 = ci + double(a) / S, y0 = cj + double(b) / S;
-                        const detail::Box D{{x0 - (i + 1.0), y0 - (j + 1.0), bottom - (k + 1.0)},
-                                            {x0 + 1.0 / S - i, y0 + 1.0 / S - j,
-                                             subTop[cell * static_cast<std::size_t>(S * S) + static_cast<std::size_t>(b * S + a)] - k}};
-                        const double dist = detail::boxDistance(D);
-                        for (std::uint32_t rest = open; rest != 0; rest &= rest - 1) {
-                            const int c = std::countr_zero(rest);
-                            if (dist < best[static_cast<std::size_t>(c)] && detail::boxMeetsCone(D, tests[static_cast<std::size_t>(c)]))
-                                best[static_cast<std::size_t>(c)] = dist;
-                        }
+                        search.offer({{x0 - (i + 1.0), y0 - (j + 1.0), bottom - (k + 1.0)},
+                                      {x0 + 1.0 / S - i, y0 + 1.0 / S - j,
+                                       subTop[cell * static_cast<std::size_t>(S * S) + static_cast<std::size_t>(b * S + a)] - k}},
+                                     open);
                     }
-                worst = *std::max_element(best.begin(), best.begin() + C);
+                search.settle();
             };
-            for (int r = 0; r <= maxRing && r - 1 < worst; ++r) {
+            for (int r = 0; r <= maxRing && r - 1 < search.worst; ++r) {
                 if (r == 0) {
                     visit(0, 0);
                     continue;
@@ -211,7 +235,7 @@ inline DirectionalDistanceMap buildDdm(const MesoHeightField& hf, const ConeSet&
                     visit(r, d);
                 }
             }
-            for (int c = 0; c < C; ++c) m.d[m.index(c, i, j, k)] = detail::floatBelow(best[static_cast<std::size_t>(c)]);
+            for (int c = 0; c < C; ++c) m.d[m.index(c, i, j, k)] = detail::floatBelow(search.best[static_cast<std::size_t>(c)]);
         }
     });
     return m;

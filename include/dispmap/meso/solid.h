@@ -239,43 +239,29 @@ inline DirectionalDistanceMap buildSolidDdm(const MesoSolid& s, const ConeSet& c
     // could still improve; the shells go on while any cone's best may improve.
     detail::parallelRows(s.layers * s.height, threads, [&](int row) {
         const int j = row % s.height, k = row / s.height;
-        std::array<double, kMaxCones> best;
+        detail::ConeSearch search(tests);
         for (int i = 0; i < s.width; ++i) {
-            best.fill(m.cap);
+            search.reset(m.cap);
             // The floor.
             const detail::Box floorBox{{-1e9, -1e9, bottom - (k + 1.0)}, {1e9, 1e9, 0.0 - k}};
-            const double floorDist = detail::boxDistance(floorBox);
-            for (int c = 0; c < C; ++c)
-                if (detail::boxMeetsCone(floorBox, tests[static_cast<std::size_t>(c)]))
-                    best[static_cast<std::size_t>(c)] = std::min(best[static_cast<std::size_t>(c)], floorDist);
-            double worst = *std::max_element(best.begin(), best.begin() + C);
+            search.offer(floorBox, search.open(floorBox, detail::boxDistance(floorBox)));
+            search.settle();
             const int maxShell = static_cast<int>(std::ceil(m.cap)) + 1;
             const auto visit = [&](int di, int dj, int dk) {
                 const int vk = k + dk;
                 if (!s.voxelSolid[s.voxelIndex(i + di, j + dj, vk)]) return;
                 const detail::Box vb{{di - 1.0, dj - 1.0, dk - 1.0}, {di + 1.0, dj + 1.0, dk + 1.0}};
-                const double voxelDist = detail::boxDistance(vb);
-                if (voxelDist >= worst) return;
-                std::uint32_t open = 0; // the cones this voxel may still improve
-                for (int c = 0; c < C; ++c)
-                    if (voxelDist < best[static_cast<std::size_t>(c)] && detail::boxMeetsCone(vb, tests[static_cast<std::size_t>(c)]))
-                        open |= 1u << c;
+                const std::uint32_t open = search.open(vb, detail::boxDistance(vb)); // the cones this voxel may improve
                 if (open == 0) return;
                 for (int e = 0; e < S * S * S; ++e) {
                     const int a = e % S, b = e / S % S, z = e / (S * S);
                     if (!s.subSolid((i + di) * S + a, (j + dj) * S + b, vk * S + z)) continue;
                     const glm::dvec3 l(di + a * h, dj + b * h, dk + z * h);
-                    const detail::Box D{l - 1.0, l + h};
-                    const double dist = detail::boxDistance(D);
-                    for (std::uint32_t rest = open; rest != 0; rest &= rest - 1) {
-                        const int c = std::countr_zero(rest);
-                        if (dist < best[static_cast<std::size_t>(c)] && detail::boxMeetsCone(D, tests[static_cast<std::size_t>(c)]))
-                            best[static_cast<std::size_t>(c)] = dist;
-                    }
+                    search.offer(detail::Box{l - 1.0, l + h}, open);
                 }
-                worst = *std::max_element(best.begin(), best.begin() + C);
+                search.settle();
             };
-            for (int r = 0; r <= maxShell && r - 1 < worst; ++r)
+            for (int r = 0; r <= maxShell && r - 1 < search.worst; ++r)
                 for (int dk = -r; dk <= r; ++dk) {
                     if (k + dk < 0 || k + dk >= s.layers) continue;
                     for (int dj = -r; dj <= r; ++dj) {
@@ -287,7 +273,7 @@ inline DirectionalDistanceMap buildSolidDdm(const MesoSolid& s, const ConeSet& c
                         }
                     }
                 }
-            for (int c = 0; c < C; ++c) m.d[m.index(c, i, j, k)] = detail::floatBelow(best[static_cast<std::size_t>(c)]);
+            for (int c = 0; c < C; ++c) m.d[m.index(c, i, j, k)] = detail::floatBelow(search.best[static_cast<std::size_t>(c)]);
         }
     });
     return m;

@@ -10,7 +10,8 @@
 //    approximate normal is off by more than the caller's tolerance (an angle). The bound is
 //    computed once per face, the first time auto normals (or autoFaces()) are asked for: a
 //    surface that never uses them never pays the autoSamples^2 evaluations a face (on
-//    options().threads threads, the same bounds for every count). At each point of a grid over the face, the angle the
+//    options().threads threads, the same bounds for every count). At each point of a grid
+//    over the face, the angle the
 //    Weingarten term turns the approximate normal by (dmWeingartenAngleSine) with |D| widened
 //    by half a cell times |grad D| (either sign), largest over the grid, times kAutoMargin for
 //    what the grid misses. Between the samples it is an estimate, not a proof; the tests
