@@ -54,8 +54,6 @@ class Parallel {
         // An arena larger than the machine only makes TBB warn: the count is an upper bound.
         if (threads > 1) arena_ = std::make_unique<tbb::task_arena>(std::min(threads, tbb::info::default_concurrency()));
     }
-    /// The count asked for (0: all cores).
-    int requested() const { return threads_; }
     /// The threads the loops may use.
     int threads() const { return threads_ == 0 ? allCores() : arena_ ? arena_->max_concurrency() : 1; }
     bool serial() const { return threads() <= 1; }

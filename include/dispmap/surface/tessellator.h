@@ -305,6 +305,14 @@ class Tessellator {
     };
     struct Build;
     double segmentFactor(int a, int b) const;
+    /// What tile t makes: the segments of each edge (two halves at a T-junction), whether it is
+    /// two triangles between its corners, its inner grid's segments, its triangles.
+    struct TileCounts {
+        std::array<std::uint64_t, 4> edgeSegments{};
+        bool allOne = false;
+        std::uint64_t nu = 0, nv = 0, triangles = 0;
+    };
+    TileCounts tileCounts(int t) const;
     /// The canonical points (0..n) of the segment between vertex ids lo < hi.
     std::vector<double> segmentSpacing(int lo, int hi) const { return edgeSpacing(segmentFactor(lo, hi), options_.spacing); }
     /// Serial, in tile order: gives tile t its vertex ids (corners and T-junction midpoints it
@@ -445,6 +453,29 @@ inline glm::dvec2 tileEdgeUV(int e, double y) {
 }
 } // namespace detail
 
+inline Tessellator::TileCounts Tessellator::tileCounts(int t) const {
+    const TileTopology& topo = surface_->base().topology();
+    TileCounts c;
+    auto segments = [&](int A, int B) { return detail::spacingSegments(segmentFactor(std::min(A, B), std::max(A, B)), options_.spacing); };
+    for (int e = 0; e < 4; ++e) {
+        const int A = topo.cornerVertex(t, e), B = topo.cornerVertex(t, e + 1);
+        const int M = tJunctionMidpoint(t, e);
+        c.edgeSegments[static_cast<std::size_t>(e)] = M >= 0 ? segments(A, M) + segments(M, B) : segments(A, B);
+    }
+    const glm::dvec2 inner = innerFactors(t);
+    c.allOne = options_.spacing == Spacing::Integer && inner.x <= 1.0 && inner.y <= 1.0;
+    for (std::uint64_t k : c.edgeSegments) c.allOne = c.allOne && k == 1;
+    if (c.allOne) {
+        c.triangles = 2;
+        return c;
+    }
+    c.nu = std::max<std::uint64_t>(detail::spacingSegments(std::max(inner.x, 1.0), options_.spacing), 2);
+    c.nv = std::max<std::uint64_t>(detail::spacingSegments(std::max(inner.y, 1.0), options_.spacing), 2);
+    const std::array<std::uint64_t, 4>& n = c.edgeSegments;
+    c.triangles = 2 * (c.nu - 2) * (c.nv - 2) + (n[0] + c.nu - 2) + (n[1] + c.nv - 2) + (n[2] + c.nu - 2) + (n[3] + c.nv - 2);
+    return c;
+}
+
 inline void Tessellator::plan(Build& b, int t) const {
     const TileTopology& topo = surface_->base().topology();
     Build::TilePlan& tp = b.tiles[static_cast<std::size_t>(t)];
@@ -452,37 +483,32 @@ inline void Tessellator::plan(Build& b, int t) const {
         int& at = b.corner[static_cast<std::size_t>(topo.cornerVertex(t, c))];
         if (at < 0) at = b.add(t, TileTopology::cornerUV(c));
     }
-    std::array<std::uint64_t, 4> n{};
+    // Segments get their interior points from the first tile that reaches them.
     auto segment = [&](int A, int B) {
         const int lo = std::min(A, B), hi = std::max(A, B);
         const int segs = static_cast<int>(detail::spacingSegments(segmentFactor(lo, hi), options_.spacing));
         auto [it, fresh] = b.segments.try_emplace(Build::key(lo, hi));
         if (fresh) it->second = Build::Segment{b.reserve(segs - 1), segs, t};
-        return static_cast<std::uint64_t>(segs);
     };
     for (int e = 0; e < 4; ++e) {
         const int A = topo.cornerVertex(t, e), B = topo.cornerVertex(t, e + 1);
         if (const int M = tJunctionMidpoint(t, e); M >= 0) {
             int& cM = b.corner[static_cast<std::size_t>(M)];
             if (cM < 0) cM = b.add(t, detail::tileEdgeUV(e, 0.5));
-            n[static_cast<std::size_t>(e)] = segment(A, M) + segment(M, B);
+            segment(A, M);
+            segment(M, B);
         } else {
-            n[static_cast<std::size_t>(e)] = segment(A, B);
+            segment(A, B);
         }
     }
-    const glm::dvec2 inner = innerFactors(t);
-    tp.allOne = options_.spacing == Spacing::Integer && inner.x <= 1.0 && inner.y <= 1.0;
-    for (std::uint64_t k : n) tp.allOne = tp.allOne && k == 1;
+    const TileCounts c = tileCounts(t);
+    tp.allOne = c.allOne;
     tp.triangles = b.triangleCount;
-    if (tp.allOne) {
-        b.triangleCount += 2;
-        return;
-    }
-    tp.nu = static_cast<int>(std::max<std::uint64_t>(detail::spacingSegments(std::max(inner.x, 1.0), options_.spacing), 2));
-    tp.nv = static_cast<int>(std::max<std::uint64_t>(detail::spacingSegments(std::max(inner.y, 1.0), options_.spacing), 2));
+    b.triangleCount += static_cast<std::size_t>(c.triangles);
+    if (c.allOne) return;
+    tp.nu = static_cast<int>(c.nu);
+    tp.nv = static_cast<int>(c.nv);
     tp.grid = b.reserve((tp.nu - 1) * (tp.nv - 1));
-    const std::uint64_t nu = static_cast<std::uint64_t>(tp.nu), nv = static_cast<std::uint64_t>(tp.nv);
-    b.triangleCount += static_cast<std::size_t>(2 * (nu - 2) * (nv - 2) + (n[0] + nu - 2) + (n[1] + nv - 2) + (n[2] + nu - 2) + (n[3] + nv - 2));
 }
 
 inline void Tessellator::emit(Build& b, int t) const {
@@ -599,30 +625,10 @@ inline TessellationSize Tessellator::estimate() const {
     TessellationSize out;
     for (int t = 0; t < topo.tileCount(); ++t) {
         if (base.isHole(t)) continue;
-        // The counts tile() makes: the segments of each edge (two halves at a T-junction),
-        // the inner grid, and the zippers between them.
-        std::array<std::uint64_t, 4> n{};
-        for (int e = 0; e < 4; ++e) {
-            const int A = topo.cornerVertex(t, e), B = topo.cornerVertex(t, e + 1);
-            if (const int M = tJunctionMidpoint(t, e); M >= 0) {
-                n[static_cast<std::size_t>(e)] = detail::spacingSegments(segmentFactor(std::min(A, M), std::max(A, M)), options_.spacing) +
-                                                 detail::spacingSegments(segmentFactor(std::min(M, B), std::max(M, B)), options_.spacing);
-            } else {
-                n[static_cast<std::size_t>(e)] = detail::spacingSegments(segmentFactor(std::min(A, B), std::max(A, B)), options_.spacing);
-            }
-        }
-        const glm::dvec2 inner = innerFactors(t);
-        bool allOne = options_.spacing == Spacing::Integer && inner.x <= 1.0 && inner.y <= 1.0;
-        for (std::uint64_t k : n) allOne = allOne && k == 1;
-        if (allOne) {
-            out.triangles += 2;
-            out.vertices += 4;
-            continue;
-        }
-        const std::uint64_t nu = std::max<std::uint64_t>(detail::spacingSegments(std::max(inner.x, 1.0), options_.spacing), 2);
-        const std::uint64_t nv = std::max<std::uint64_t>(detail::spacingSegments(std::max(inner.y, 1.0), options_.spacing), 2);
-        out.triangles += 2 * (nu - 2) * (nv - 2) + (n[0] + nu - 2) + (n[1] + nv - 2) + (n[2] + nu - 2) + (n[3] + nv - 2);
-        out.vertices += (nu - 1) * (nv - 1) + n[0] + n[1] + n[2] + n[3];
+        const TileCounts c = tileCounts(t);
+        out.triangles += c.triangles;
+        const std::array<std::uint64_t, 4>& n = c.edgeSegments;
+        out.vertices += c.allOne ? 4 : (c.nu - 1) * (c.nv - 1) + n[0] + n[1] + n[2] + n[3];
     }
     // Per vertex: its pending entry (24 bytes) and the mesh's position, normal, face, uv and
     // resolution (76); per triangle: indices, face and corner uvs (64). tessellate() sizes its
