@@ -170,12 +170,20 @@ class TileBuild {
         const int n = topo.tileCount();
         data_.resize(static_cast<std::size_t>(n));
         fit_.resize(static_cast<std::size_t>(n));
+        levelPlans_.resize(static_cast<std::size_t>(n));
         for (int t = 0; t < n; ++t) {
             // Levels 0..k-1, plus a virtual level of size 1 (see sourceLevelAt).
             for (int m = 0; m <= k_[u(t)]; ++m) data_[u(t)].emplace_back(levelTexels(size(t, m)), 0.0);
             fit_[u(t)].assign(levelTexels(size(t, 0)), 0.0);
+            levelPlans_[u(t)].resize(u(k_[u(t)]));
         }
+        diagonal_.resize(static_cast<std::size_t>(n));
+        for (int t = 0; t < n; ++t)
+            for (int c = 0; c < 4; ++c) findDiagonal(t, c, diagonal_[u(t)][u(c)][0], diagonal_[u(t)][u(c)][1]);
     }
+    // levelPlans_ points into data_: a copy would point into the original.
+    TileBuild(const TileBuild&) = delete;
+    TileBuild& operator=(const TileBuild&) = delete;
 
     static std::size_t u(int i) { return static_cast<std::size_t>(i); }
     int size(int t, int m) const { return (1 << k_[u(t)]) >> m; }
@@ -205,6 +213,7 @@ class TileBuild {
         default: return {d, s + 1 - t};
         }
     }
+    static std::ptrdiff_t texelIndex(glm::ivec2 p, int s) { return static_cast<std::ptrdiff_t>(p.y) * (s + 2) + p.x; }
     double& edgeAt(int t, int m, int e, int along, int d) {
         glm::ivec2 p = edgeTexel(e, along, d, size(t, m));
         return at(t, m, p.x, p.y);
@@ -212,35 +221,27 @@ class TileBuild {
     double& cornerInterior(int t, int m, int c) { return edgeAt(t, m, c, 1, 1); }
     double& cornerRing(int t, int m, int c) { return edgeAt(t, m, c, 0, 0); }
 
-    /// Value of the neighbour's first interior row that my ring texel `along` of edge e copies,
-    /// or false if the neighbour has no level of matching resolution there.
-    bool linked(const TileTopology::Link& l, int t, int m, int along, double& out) {
+    /// The texel of the neighbour's first interior row that my ring texel `along` of edge e
+    /// copies, or nullptr if the neighbour has no level of matching resolution there.
+    const double* linkedSource(const TileTopology::Link& l, int t, int m, int along) {
         const int s = size(t, m);
         const long sn = std::lround(static_cast<double>(s) / l.beta);
         const int kn = k_[u(l.tile)];
         int mn = -1;
         for (int j = 0; j <= kn; ++j)
             if (size(l.tile, j) == sn) mn = j;
-        if (mn < 0) return false;
+        if (mn < 0) return nullptr;
         const long tn = std::lround(static_cast<double>(sn) * l.alpha) + 1 - along;
-        if (tn < 0 || tn > sn + 1) return false;
-        out = edgeAt(l.tile, mn, l.edge, static_cast<int>(tn), 1);
-        return true;
+        if (tn < 0 || tn > sn + 1) return nullptr;
+        return &edgeAt(l.tile, mn, l.edge, static_cast<int>(tn), 1);
     }
     /// Of the two edges at corner c, one whose ring copies a neighbour at this level (so the
     /// neighbour, extrapolating along the same line, gets the same value); else edge c.
     int matchedEdge(int t, int m, int c) {
         const int prev = (c + 3) & 3;
-        double unused = 0.0;
-        if (const TileTopology::Link* l = topo_.linkAt(t, c, 0.0); l && linked(*l, t, m, 1, unused)) return c;
-        if (const TileTopology::Link* l = topo_.linkAt(t, prev, 1.0); l && linked(*l, t, m, size(t, m), unused)) return prev;
+        if (const TileTopology::Link* l = topo_.linkAt(t, c, 0.0); l && linkedSource(*l, t, m, 1)) return c;
+        if (const TileTopology::Link* l = topo_.linkAt(t, prev, 1.0); l && linkedSource(*l, t, m, size(t, m))) return prev;
         return c;
-    }
-    /// Extrapolates the ring corner at corner c from the ring of the edge `e` (c or c - 1).
-    double extrapolateCorner(int t, int m, int c, int e) {
-        const int s = size(t, m);
-        if (e == c) return 2.0 * edgeAt(t, m, e, 1, 0) - edgeAt(t, m, e, 2, 0);
-        return 2.0 * edgeAt(t, m, e, s, 0) - edgeAt(t, m, e, s - 1, 0);
     }
 
     void filterLevel(int t, int m, MipFilter f) {
@@ -343,18 +344,33 @@ class TileBuild {
 
     void fillEdgeRings(int t, int m, int g) {
         const int s = size(t, m);
-        std::array<bool, 4> matched{};
-        for (int e = 0; e < 4; ++e) {
-            matched[u(e)] = true;
-            for (int along = 1; along <= s; ++along) {
-                const double y = (along - 0.5) / s;
-                const TileTopology::Link* l = topo_.linkAt(t, e, y);
-                double v = 0.0;
-                if (!l || !linked(*l, t, m, along, v)) {
-                    v = 2.0 * edgeAt(t, m, e, along, 1) - edgeAt(t, m, e, along, 2);
-                    matched[u(e)] = false;
+        // Which neighbour texel each ring texel copies depends on the topology and the sizes
+        // only: found on the first call for (t, m), kept for the sweeps after it (the lookups
+        // cost more than the copies on small tiles). Each (t, m) is one task's alone.
+        LevelPlan& plan = levelPlans_[u(t)][u(m)];
+        if (plan.source.empty()) {
+            plan.source.assign(u(4 * s), nullptr);
+            for (int e = 0; e < 4; ++e) {
+                plan.matched[u(e)] = true;
+                for (int along = 1; along <= s; ++along) {
+                    const TileTopology::Link* l = topo_.linkAt(t, e, (along - 0.5) / s);
+                    const double* p = l ? linkedSource(*l, t, m, along) : nullptr;
+                    plan.source[u(e * s + along - 1)] = p;
+                    if (!p) plan.matched[u(e)] = false;
                 }
-                edgeAt(t, m, e, along, 0) = v;
+            }
+        }
+        const std::array<bool, 4>& matched = plan.matched;
+        double* level = data_[u(t)][u(m)].data();
+        for (int e = 0; e < 4; ++e) {
+            // edgeAt(t, m, e, along, d) is level[base + along * step + d * inward].
+            const std::ptrdiff_t base = texelIndex(edgeTexel(e, 0, 0, s), s);
+            const std::ptrdiff_t step = texelIndex(edgeTexel(e, 1, 0, s), s) - base, inward = texelIndex(edgeTexel(e, 0, 1, s), s) - base;
+            const double* const* source = plan.source.data() + e * s;
+            for (int along = 1; along <= s; ++along) {
+                const std::ptrdiff_t i = base + along * step;
+                const double* p = source[along - 1];
+                level[i] = p ? *p : 2.0 * level[i + inward] - level[i + 2 * inward];
             }
         }
         // An unmatched ring entry next to a regular vertex lies in the quadrant of a tile C
@@ -376,8 +392,14 @@ class TileBuild {
         }
     }
 
-    /// The tile diagonal to tile t across its corner c at a regular vertex (or -1).
+    /// The tile diagonal to tile t across its corner c at a regular vertex (or -1), found once
+    /// per corner (the rings and corners of every sweep ask).
     void diagonal(int t, int c, int& dt, int& dc) const {
+        const std::array<int, 2>& d = diagonal_[u(t)][u(c & 3)];
+        dt = d[0];
+        dc = d[1];
+    }
+    void findDiagonal(int t, int c, int& dt, int& dc) const {
         const TileTopology::Link* next = topo_.linkAt(t, c, 0.0);
         const TileTopology::Link* back = topo_.linkAt(t, (c + 3) & 3, 1.0);
         dt = dc = -1;
@@ -389,44 +411,82 @@ class TileBuild {
         }
     }
 
-    void fillCorner(int t, int m, int c, int g) {
+    /// How corner c of level m of tile t gets its ring value: decided by the topology and the
+    /// sizes alone, so once (planCorner), then read by every sweep (fillCorner).
+    struct CornerPlan {
+        enum Mode : std::uint8_t { Unplanned, Constrained, Copy, Parallelogram, Extrapolate };
+        Mode mode = Unplanned;
+        const double* a = nullptr; ///< Constrained, Copy: the value; Parallelogram: a + b - c; Extrapolate: 2 a - b
+        const double* b = nullptr;
+        const double* c = nullptr;
+    };
+    CornerPlan planCorner(int t, int m, int c, int g) {
         const int s = size(t, m);
         const int v = topo_.cornerVertex(t, c);
         const int prev = (c + 3) & 3;
         const TileTopology::Link* next = topo_.linkAt(t, c, 0.0);
         const TileTopology::Link* back = topo_.linkAt(t, prev, 1.0);
-        double value = 0.0;
+        CornerPlan p;
+        auto extrapolate = [&](int e) { // from the ring of edge e (c or c - 1)
+            p.mode = CornerPlan::Extrapolate;
+            p.a = e == c ? &edgeAt(t, m, e, 1, 0) : &edgeAt(t, m, e, s, 0);
+            p.b = e == c ? &edgeAt(t, m, e, 2, 0) : &edgeAt(t, m, e, s - 1, 0);
+        };
         switch (topo_.kind(v)) {
-        case TileTopology::VertexKind::Constrained: {
-            value = cornerInterior(t, m, c);
-            edgeAt(t, m, c, 1, 0) = value;
-            edgeAt(t, m, prev, s, 0) = value;
+        case TileTopology::VertexKind::Constrained:
+            p.mode = CornerPlan::Constrained;
+            p.a = &cornerInterior(t, m, c);
             break;
-        }
         case TileTopology::VertexKind::Regular: {
             int dt = -1, dc = -1;
             diagonal(t, c, dt, dc);
             const int dm = dt >= 0 ? sourceLevelAt(dt, g) : -1;
-            double unused = 0.0;
-            if (dm >= 0)
-                value = cornerInterior(dt, dm, dc);
-            else if (next && back && linked(*next, t, m, 1, unused) && linked(*back, t, m, s, unused))
-                value = edgeAt(t, m, c, 1, 0) + edgeAt(t, m, prev, s, 0) - cornerInterior(t, m, c); // parallelogram
-            else
-                value = extrapolateCorner(t, m, c, matchedEdge(t, m, c));
+            if (dm >= 0) {
+                p.mode = CornerPlan::Copy;
+                p.a = &cornerInterior(dt, dm, dc);
+            } else if (next && back && linkedSource(*next, t, m, 1) && linkedSource(*back, t, m, s)) {
+                p.mode = CornerPlan::Parallelogram;
+                p.a = &edgeAt(t, m, c, 1, 0);
+                p.b = &edgeAt(t, m, prev, s, 0);
+                p.c = &cornerInterior(t, m, c);
+            } else {
+                extrapolate(matchedEdge(t, m, c));
+            }
             break;
         }
         case TileTopology::VertexKind::BoundaryRegular:
-            value = extrapolateCorner(t, m, c, matchedEdge(t, m, c));
+            extrapolate(matchedEdge(t, m, c));
             break;
         case TileTopology::VertexKind::TJunction: {
             // The edge on the base edge (not the spoke) links to the quad with beta != 1.
-            bool ok = false;
-            if (next && next->beta != 1.0) ok = linked(*next, t, m, 0, value);
-            if (!ok && back && back->beta != 1.0) ok = linked(*back, t, m, s + 1, value);
-            if (!ok) value = extrapolateCorner(t, m, c, c);
+            const double* q = nullptr;
+            if (next && next->beta != 1.0) q = linkedSource(*next, t, m, 0);
+            if (!q && back && back->beta != 1.0) q = linkedSource(*back, t, m, s + 1);
+            if (q) {
+                p.mode = CornerPlan::Copy;
+                p.a = q;
+            } else {
+                extrapolate(c);
+            }
             break;
         }
+        }
+        return p;
+    }
+    void fillCorner(int t, int m, int c, int g) {
+        CornerPlan& p = levelPlans_[u(t)][u(m)].corner[u(c)];
+        if (p.mode == CornerPlan::Unplanned) p = planCorner(t, m, c, g);
+        double value = 0.0;
+        switch (p.mode) {
+        case CornerPlan::Constrained:
+            value = *p.a;
+            edgeAt(t, m, c, 1, 0) = value;
+            edgeAt(t, m, (c + 3) & 3, size(t, m), 0) = value;
+            break;
+        case CornerPlan::Copy: value = *p.a; break;
+        case CornerPlan::Parallelogram: value = *p.a + *p.b - *p.c; break;
+        case CornerPlan::Extrapolate: value = 2.0 * *p.a - *p.b; break;
+        case CornerPlan::Unplanned: break;
         }
         cornerRing(t, m, c) = value;
     }
@@ -537,6 +597,15 @@ class TileBuild {
     const TileTopology& topo_;
     std::vector<int> k_;
     std::vector<std::vector<std::vector<double>>> data_;
+    /// Per tile and level: the neighbour texel each ring texel copies (fillEdgeRings; edge e,
+    /// texel along at [e s + along - 1], nullptr where it extrapolates) and the corners' plans.
+    struct LevelPlan {
+        std::vector<const double*> source;
+        std::array<bool, 4> matched{};
+        std::array<CornerPlan, 4> corner{};
+    };
+    std::vector<std::vector<LevelPlan>> levelPlans_;
+    std::vector<std::array<std::array<int, 2>, 4>> diagonal_; ///< (tile, corner) across each corner, or -1
     std::vector<std::vector<double>> fit_;
     std::vector<Schedule> schedule_;
     std::vector<int> constrained_;
