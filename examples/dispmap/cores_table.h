@@ -1,6 +1,7 @@
 #pragma once
 // `dispmap bench --only cores`: what all cores buy, stage by stage, measured in one run against
 // one thread (docs/figures.md, "All cores"), and what each surface option costs at set-up.
+#include <functional>
 #include <ostream>
 #include <string>
 
@@ -13,5 +14,8 @@ struct CoresTableArgs {
 };
 
 void printCoresTable(std::ostream& out, const CoresTableArgs& a);
+
+/// Wall-clock seconds of one call of f.
+double secondsOf(const std::function<void()>& f);
 
 } // namespace dispmap::figures

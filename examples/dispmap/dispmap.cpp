@@ -47,6 +47,8 @@
 #include "maps_table.h"
 #include "uv_seams_table.h"
 #include "cores_table.h"
+#include "cages_table.h"
+#include "embree_table.h"
 #include "gltf_export.h"
 #include "seams_table.h"
 
@@ -595,11 +597,19 @@ int main(int argc, char** argv) {
     benchCmd->add_option("--seams-csv", seamsCsv, "also write the seams table as CSV");
     std::string only;
     benchCmd->add_option("--only", only, "print only this table, no timings")
-        ->check(CLI::IsMember({"mips", "normals", "isolation", "swim", "tessellation", "edit", "seams", "render", "cores"}));
+        ->check(CLI::IsMember({"mips", "normals", "isolation", "swim", "tessellation", "edit", "seams", "render", "cores", "embree", "cages"}));
     figures::CoresTableArgs cta;
     cta.dataDir = DISPMAP_EXAMPLE_DATA;
-    benchCmd->add_flag("--quick", cta.quick, "with --only cores: smaller tiles and factors, one cone set (CI)");
+    benchCmd->add_flag("--quick", cta.quick, "with --only cores, embree or cages: the small version (CI)");
     benchCmd->add_option("--cores-csv", cta.csv, "also write the all-cores table as CSV");
+    figures::EmbreeTableArgs eta;
+    eta.dataDir = DISPMAP_EXAMPLE_DATA;
+    eta.denseDir = DISPMAP_DENSE_DIR;
+    benchCmd->add_option("--embree-csv", eta.csv, "also write the Embree side-by-side table as CSV");
+    figures::CagesTableArgs gta;
+    gta.denseDir = DISPMAP_DENSE_DIR;
+    gta.dataDir = DISPMAP_EXAMPLE_DATA;
+    benchCmd->add_option("--cages-csv", gta.csv, "also write the production-size cages table as CSV");
     benchCmd->add_option("--swim-csv", swimCsv, "also write the swimming figure as CSV");
     benchCmd->add_option("--isolation-csv", isolationCsv, "also write the isolation-level table as CSV");
     benchCmd->add_option("--normals-csv", normalsCsv, "also write the normals table as CSV");
@@ -730,6 +740,10 @@ int main(int argc, char** argv) {
             table("seams", [&] { figures::printSeamsTable(std::cout, seamsCsv); });
             table("render", [&] { figures::printRenderTable(std::cout, {renderImages, renderCsv, renderFrames, true, ""}); });
             table("cores", [&] { figures::printCoresTable(std::cout, cta); });
+            eta.quick = cta.quick;
+            table("embree", [&] { figures::printEmbreeTable(std::cout, eta); });
+            gta.quick = cta.quick;
+            table("cages", [&] { figures::printCagesTable(std::cout, gta); });
             if (!only.empty()) return 0;
             return figures::runBenchmarks(benchCmd->remaining());
         }

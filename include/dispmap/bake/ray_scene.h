@@ -40,6 +40,23 @@ template <typename vec3> vec3 closestPointOnTriangle(const vec3& p, const vec3& 
     return a + ab * (vb * denom) + ac * (vc * denom);
 }
 
+/// The ray org + t dir, tnear <= t <= tfar, for rtcIntersect1: every mask bit, no hit yet.
+inline RTCRayHit embreeRay(const glm::vec3& org, const glm::vec3& dir, float tnear, float tfar) {
+    RTCRayHit rh{};
+    rh.ray.org_x = org.x;
+    rh.ray.org_y = org.y;
+    rh.ray.org_z = org.z;
+    rh.ray.dir_x = dir.x;
+    rh.ray.dir_y = dir.y;
+    rh.ray.dir_z = dir.z;
+    rh.ray.tnear = tnear;
+    rh.ray.tfar = tfar;
+    rh.ray.mask = 0xFFFFFFFFu;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
+    return rh;
+}
+
 /// One triangle mesh in an Embree scene.
 class RayScene {
   public:
@@ -97,18 +114,7 @@ class RayScene {
     Hit intersect(const glm::vec3& org, const glm::vec3& dir, float tnear, float tfar) const {
         RTCIntersectContext ctx;
         rtcInitIntersectContext(&ctx);
-        RTCRayHit rh{};
-        rh.ray.org_x = org.x;
-        rh.ray.org_y = org.y;
-        rh.ray.org_z = org.z;
-        rh.ray.dir_x = dir.x;
-        rh.ray.dir_y = dir.y;
-        rh.ray.dir_z = dir.z;
-        rh.ray.tnear = tnear;
-        rh.ray.tfar = tfar;
-        rh.ray.mask = 0xFFFFFFFFu;
-        rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-        rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
+        RTCRayHit rh = embreeRay(org, dir, tnear, tfar);
         rtcIntersect1(scene_.get(), &ctx, &rh);
         Hit h;
         if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return h;
