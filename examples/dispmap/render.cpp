@@ -2,6 +2,7 @@
 #include "render.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <iomanip>
@@ -101,8 +102,16 @@ int renderCommand(const RenderArgs& a) {
     } else {
         scene = defaultScene();
     }
+    // Host time, stage by stage, beside the GPU time: what a large cage costs before and around
+    // its frames.
+    using Clock = std::chrono::steady_clock;
+    auto msSince = [](Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); };
+    auto t0 = Clock::now();
     SceneSurface s(scene);
+    const double surfaceMs = msSince(t0);
+    t0 = Clock::now();
     auto ctx = makeContext(a.device, a.validation);
+    const double deviceMs = msSince(t0);
     if (ctx->isSoftware()) {
         // Frame time on a CPU device grows with the triangles (docs/lavapipe.md): refused when
         // one frame would take minutes. The count is the CPU tessellator's at the scene's
@@ -121,8 +130,12 @@ int renderCommand(const RenderArgs& a) {
     }
     vulkan::RendererOptions o;
     o.facesPerDraw = a.facesPerDraw;
+    t0 = Clock::now();
     vulkan::SurfaceRenderer r(*ctx, scene, s.surface, s.atlas ? &*s.atlas : nullptr, o);
+    const double rendererMs = msSince(t0);
+    t0 = Clock::now();
     const vulkan::RenderedImage im = r.render(a.frames, 1);
+    const double framesMs = msSince(t0);
     if (!a.output.empty()) writePng(im, a.output);
     const SurfaceEffects& e = scene.effects;
     std::cout << "scene '" << scene.name << "' on " << ctx->deviceName() << (ctx->isSoftware() ? " (a CPU device: GPU time is CPU time)" : "")
@@ -131,7 +144,10 @@ int renderCommand(const RenderArgs& a) {
               << ", " << toString(e.spacing) << ")" << (e.wireframe ? ", wireframe" : "") << "\n"
               << "  " << im.width << " x " << im.height << ": GPU time " << fixed(im.stats.gpuMs, 3) << " ms (median of " << im.stats.frames
               << " frames), " << im.stats.patches << " patches, " << im.stats.triangles << " triangles, " << im.stats.tesInvocations << " evaluation shader invocations"
-              << (a.output.empty() ? "" : ", wrote " + a.output) << "\n";
+              << (a.output.empty() ? "" : ", wrote " + a.output) << "\n"
+              << "  host: surface " << fixed(surfaceMs, 1) << " ms (base surface, tiles, DisplacedSurface), device " << fixed(deviceMs, 1)
+              << " ms, renderer " << fixed(rendererMs, 1) << " ms (pipelines, uploads), frames " << fixed(framesMs, 1) << " ms wall for "
+              << im.stats.frames + 1 << " (one warm-up; GPU " << fixed(im.stats.gpuMs, 1) << " ms a frame)\n";
     int status = 0;
     for (const std::string& m : ctx->takeValidationMessages()) {
         std::cerr << "validation: " << m << "\n";
