@@ -163,7 +163,8 @@ struct CageRow {
 
 /// The stages of a surface from a cage: base surface, tiles (2^3, a small procedural D), the
 /// displaced surface, a tessellation at factor 2.
-CageRow stages(const ControlMesh& mesh, const std::string& kind, int isolation) {
+/// `keep`, if given, receives the base surface (the dense rows measure its accuracy after).
+CageRow stages(const ControlMesh& mesh, const std::string& kind, int isolation, std::unique_ptr<BaseSurface>* keep = nullptr) {
     CageRow r;
     r.cage = mesh.description().name;
     r.kind = kind;
@@ -184,27 +185,37 @@ CageRow stages(const ControlMesh& mesh, const std::string& kind, int isolation) 
     TriangleMesh m;
     r.tess = measured([&] { m = tessellate(*surface, uniformTessFactors(*base, 2.0)); });
     r.triangles = m.triangleCount();
+    surface.reset();
+    if (keep) *keep = std::move(base);
     return r;
 }
 
-std::string mib(double v) { return v < 0 ? std::string("n/a") : fixed(v, v < 10 ? 1 : 0); }
+std::string mib(double v) { return fixed(v, std::abs(v) < 10 ? 1 : 0); }
+std::string peak(double v) { return v < 0 ? std::string("n/a") : mib(v); }
 
-/// Least-squares slope of log y against log x.
-double slope(const std::vector<double>& x, const std::vector<double>& y) {
+/// Least-squares slope of log y against log x over the points with y > 0 ("n/a" with fewer than
+/// two: a held size of 0 or less, as under a sanitizer's allocator, has no logarithm).
+std::string slope(const std::vector<double>& x, const std::vector<double>& y) {
+    std::vector<double> lx, ly;
+    for (std::size_t i = 0; i < x.size(); ++i)
+        if (y[i] > 0) {
+            lx.push_back(std::log(x[i]));
+            ly.push_back(std::log(y[i]));
+        }
+    if (lx.size() < 2) return "n/a";
     double mx = 0, my = 0;
-    for (std::size_t i = 0; i < x.size(); ++i) {
-        mx += std::log(x[i]);
-        my += std::log(std::max(y[i], 1e-12));
+    for (std::size_t i = 0; i < lx.size(); ++i) {
+        mx += lx[i];
+        my += ly[i];
     }
-    mx /= static_cast<double>(x.size());
-    my /= static_cast<double>(x.size());
+    mx /= static_cast<double>(lx.size());
+    my /= static_cast<double>(lx.size());
     double sxy = 0, sxx = 0;
-    for (std::size_t i = 0; i < x.size(); ++i) {
-        const double dx = std::log(x[i]) - mx;
-        sxy += dx * (std::log(std::max(y[i], 1e-12)) - my);
-        sxx += dx * dx;
+    for (std::size_t i = 0; i < lx.size(); ++i) {
+        sxy += (lx[i] - mx) * (ly[i] - my);
+        sxx += (lx[i] - mx) * (lx[i] - mx);
     }
-    return sxx > 0 ? sxy / sxx : 0.0;
+    return sxx > 0 ? fixed(sxy / sxx, 2) : std::string("n/a");
 }
 
 /// Points in the corner quarter of every Ptex corner at an extraordinary vertex (where the
@@ -269,13 +280,13 @@ void printCagesTable(std::ostream& out, const CagesTableArgs& a) {
         << "process grew during it (peak" << (peaks ? "" : ": n/a, /proc/self/clear_refs refused") << "), MiB. Stages: "
         << "base surface (OpenSubdiv's adaptive refinement, patch table, points), tiles (2^3, a procedural D), the\n"
         << "displaced surface, a tessellation at factor 2.\n\n"
-        << "| cage | faces | Ptex faces | isolation | base s | base held / peak | tiles s | tiles held | surface s | tessellate s "
+        << "| cage | faces | Ptex faces | isolation | base s | base held / peak | tiles s | tiles held / peak | surface s | tessellate s "
            "| triangles |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
     std::vector<CageRow> rows;
     auto print = [&](const CageRow& r) {
         out << "| " << r.cage << " | " << r.faces << " | " << r.ptexFaces << " | " << r.isolation << " | " << fixed(r.base.seconds, 3)
-            << " | " << mib(r.base.heldMiB) << " / " << mib(r.base.peakMiB) << " | " << fixed(r.tiles.seconds, 3) << " | "
-            << mib(r.tiles.heldMiB) << " | " << fixed(r.surface.seconds, 3) << " | " << fixed(r.tess.seconds, 3) << " | " << r.triangles
+            << " | " << mib(r.base.heldMiB) << " / " << peak(r.base.peakMiB) << " | " << fixed(r.tiles.seconds, 3) << " | "
+            << mib(r.tiles.heldMiB) << " / " << peak(r.tiles.peakMiB) << " | " << fixed(r.surface.seconds, 3) << " | " << fixed(r.tess.seconds, 3) << " | " << r.triangles
             << " |\n";
         if (csv) {
             const std::pair<const char*, const Usage*> st[4] = {{"base", &r.base}, {"tiles", &r.tiles}, {"surface", &r.surface}, {"tessellate", &r.tess}};
@@ -288,7 +299,7 @@ void printCagesTable(std::ostream& out, const CagesTableArgs& a) {
     // Synthetic tori of about 1k, 10k, 100k faces: quads (valence 4 everywhere: no isolation
     // anywhere) and triangles (Catmull-Clark makes every vertex and face centre extraordinary:
     // isolation everywhere, the worst case). Triangles at isolation 6 stop at 10k faces: 100k
-    // would hold about 13 GB (the bunny row below scales so).
+    // would hold about 12 GB (the bunny row below scales so).
     const int sizes[3][2] = {{40, 25}, {125, 80}, {400, 250}};
     const int triSizes[3][2] = {{25, 20}, {100, 50}, {250, 200}};
     const int count = a.quick ? 2 : 3;
@@ -326,15 +337,13 @@ void printCagesTable(std::ostream& out, const CagesTableArgs& a) {
         const double diag = cageDiagonal(mesh);
         Probes ref;
         for (int isolation : {6, 4, 2}) {
-            rows.push_back(stages(mesh, "dense", isolation));
+            std::unique_ptr<BaseSurface> s;
+            rows.push_back(stages(mesh, "dense", isolation, &s));
             print(rows.back());
-            BaseSurfaceOptions bo;
-            bo.isolationLevel = isolation;
-            const BaseSurface s(mesh, bo);
             if (isolation == 6)
-                ref = probesOf(s);
+                ref = probesOf(*s);
             else
-                accuracy[i].emplace_back(std::to_string(isolation), deviation(s, ref, diag));
+                accuracy[i].emplace_back(std::to_string(isolation), deviation(*s, ref, diag));
         }
         for (auto& [level, d] : accuracy[i])
             level = dense[i].name + " (" + std::to_string(ref.face.size()) + " points near extraordinary vertices), isolation " + level;
@@ -359,8 +368,8 @@ void printCagesTable(std::ostream& out, const CagesTableArgs& a) {
                     last = r.faces;
                 }
             if (x.size() < 2) continue;
-            out << "| " << kind << " | " << isolation << " | " << first << " to " << last << " | " << fixed(slope(x, bt), 2) << " | " << fixed(slope(x, bh), 2)
-                << " | " << fixed(slope(x, tt), 2) << " | " << fixed(slope(x, th), 2) << " | " << fixed(slope(x, te), 2) << " |\n";
+            out << "| " << kind << " | " << isolation << " | " << first << " to " << last << " | " << slope(x, bt) << " | " << slope(x, bh)
+                << " | " << slope(x, tt) << " | " << slope(x, th) << " | " << slope(x, te) << " |\n";
         }
     if (!accuracy[0].empty() || !accuracy[1].empty()) {
         out << "\nWhat a lower isolation gives up on the dense cages, against isolation 6 (the default), at two points in the\n"

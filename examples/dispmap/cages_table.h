@@ -3,7 +3,7 @@
 // cage (docs/figures.md, "Production-size cages"): synthetic torus cages of 1k, 10k and 100k
 // faces, quads (no extraordinary vertex) and triangles (every vertex extraordinary), at two
 // isolation levels, with the growth exponents fitted; quad-dominant production-size cages (Spot
-// refined 4 and 5 times: 46k and 184k quads, extraordinary vertices only where Spot has them);
+// refined 4 and 5 times: 46k and 187k quads, extraordinary vertices only where Spot has them);
 // and dense triangle cages (the fandisk, the Stanford bunny) at isolation 2, 4 and 6 with the
 // accuracy each level gives up.
 #include <ostream>
