@@ -102,28 +102,19 @@ Usage measured(const std::function<void()>& f) {
     return u;
 }
 
-/// A torus cage: n x m quads, or those quads split into two triangles each.
+/// The built-in torus cage of n x m quads (radii 2 and 0.6), or those quads split into two
+/// triangles each.
 ControlMesh torus(int n, int m, bool triangles) {
-    MeshDescription d;
-    d.name = "torus " + std::to_string(n) + "x" + std::to_string(m) + (triangles ? " triangulated" : "");
-    const double tau = 6.283185307179586, R = 2.0, r = 0.6;
-    for (int j = 0; j < m; ++j)
-        for (int i = 0; i < n; ++i) {
-            const double a = tau * i / n, b = tau * j / m, w = R + r * std::cos(b);
-            d.positions.emplace_back(w * std::cos(a), w * std::sin(a), r * std::sin(b));
-        }
-    auto id = [&](int i, int j) { return (j % m) * n + (i % n); };
-    for (int j = 0; j < m; ++j)
-        for (int i = 0; i < n; ++i) {
-            const int q[4] = {id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)};
-            if (triangles) {
-                d.faceSizes.insert(d.faceSizes.end(), {3, 3});
-                d.faceVertices.insert(d.faceVertices.end(), {q[0], q[1], q[2], q[0], q[2], q[3]});
-            } else {
-                d.faceSizes.push_back(4);
-                d.faceVertices.insert(d.faceVertices.end(), q, q + 4);
-            }
-        }
+    const std::string name = "torus " + std::to_string(n) + "x" + std::to_string(m);
+    ControlMesh quads = builtin::torusCage(n, m, 2.0, 0.6, name);
+    if (!triangles) return quads;
+    MeshDescription d = quads.description();
+    d.name = name + " triangulated";
+    const std::vector<int> q = d.faceVertices;
+    d.faceSizes.assign(2 * q.size() / 4, 3);
+    d.faceVertices.clear();
+    for (std::size_t f = 0; f + 3 < q.size(); f += 4)
+        d.faceVertices.insert(d.faceVertices.end(), {q[f], q[f + 1], q[f + 2], q[f], q[f + 2], q[f + 3]});
     return ControlMesh(std::move(d));
 }
 
