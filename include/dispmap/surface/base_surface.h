@@ -86,6 +86,10 @@ class BaseSurface {
     /// topologyHash of the mesh it was built from (TileSet::topologyHash of matching tiles).
     std::uint64_t topologyHash() const { return topologyHash_; }
     const Far::PatchTable& patchTable() const { return *table_; }
+    /// The refiner of the control mesh. Only its base level (GetLevel(0)) is kept: the refined
+    /// levels the patch table was built from are dropped once the points are refined (they are
+    /// most of the memory at deep isolation: 1.1 of 1.5 GiB on the 13k-triangle fandisk at
+    /// level 6, `dispmap bench --only cages`), and setControlPoints brings them back.
     const Far::TopologyRefiner& refiner() const { return *refiner_; }
     const TileTopology& topology() const { return topology_; }
     /// Refined vertices of every level followed by the patch table's local points (double).
@@ -123,9 +127,11 @@ class BaseSurface {
     template <typename real> bool endCapCorners(int face, real u, real v, EndCapCorners<real>& out) const;
 
     /// Animation (Nießner & Loop 2013, §4.1): new positions of the control mesh's vertices
-    /// (same count and order as the mesh it was built from) refined through the existing
-    /// refiner and the patch table's local-point stencils; the topology, patch table and patch
-    /// map are kept. Afterwards points() and cornerNormal() describe the moved surface exactly
+    /// (same count and order as the mesh it was built from) refined through the refiner and
+    /// the patch table's local-point stencils; the topology, patch table and patch map are
+    /// kept. The first call refines the topology again (the constructor dropped its levels;
+    /// the same options give the same levels) and keeps it for the next calls: an animated
+    /// surface holds the refined levels, a still one does not. Afterwards points() and cornerNormal() describe the moved surface exactly
     /// as a BaseSurface built from the moved mesh would (bit for bit: the same arithmetic).
     /// Throws ArgumentError for a wrong count or a NaN/Inf coordinate (nothing changes then).
     /// A DisplacedSurface built on this surface sees the moved surface; its auto-normal choice
@@ -145,6 +151,8 @@ class BaseSurface {
     BaseSurfaceOptions options_;
     int faceCount_ = 0;
     std::unique_ptr<Far::TopologyRefiner> refiner_;
+    Far::TopologyRefiner::AdaptiveOptions adaptive_{0}; ///< the refinement the patch table was built from
+    bool refined_ = false;                              ///< refiner_ holds its refined levels again
     std::unique_ptr<Far::PatchTable> table_;
     std::unique_ptr<Far::PatchMap> map_;
     TileTopology topology_;
@@ -197,14 +205,15 @@ inline BaseSurface::BaseSurface(const ControlMesh& mesh, BaseSurfaceOptions opti
     po.useInfSharpPatch = true;
     po.generateVaryingTables = false;
     po.generateVaryingLocalPoints = false;
-    Far::TopologyRefiner::AdaptiveOptions adaptive = po.GetRefineAdaptiveOptions();
-    adaptive.SetSecondaryLevel(options.isolationLevel);
-    refiner_->RefineAdaptive(adaptive);
+    adaptive_ = po.GetRefineAdaptiveOptions();
+    adaptive_.SetSecondaryLevel(options.isolationLevel);
+    refiner_->RefineAdaptive(adaptive_);
     table_.reset(Far::PatchTableFactory::Create(*refiner_, po));
     if (!table_) throw MeshError(name_ + ": OpenSubdiv could not build a patch table");
     map_ = std::make_unique<Far::PatchMap>(*table_);
 
     refinePoints(mesh.description().positions);
+    refiner_->Unrefine(); // the patch table and the points hold all that evaluation needs
 
     // Holes: Ptex faces without patches.
     hole_.assign(static_cast<std::size_t>(faceCount_), 1);
@@ -305,6 +314,10 @@ inline void BaseSurface::setControlPoints(const std::vector<glm::dvec3>& positio
     for (std::size_t i = 0; i < positions.size(); ++i)
         if (!std::isfinite(positions[i].x) || !std::isfinite(positions[i].y) || !std::isfinite(positions[i].z))
             throw ArgumentError(name_ + ": control point " + std::to_string(i + 1) + " has a NaN or infinite coordinate");
+    if (!refined_) { // once: the same options on the same base level give the same levels
+        refiner_->RefineAdaptive(adaptive_);
+        refined_ = true;
+    }
     refinePoints(positions);
     computeCornerNormals();
 }
