@@ -144,7 +144,9 @@ class BaseSurface {
     template <typename real> const Far::PatchTable::PatchHandle& findPatch(int face, real u, real v) const;
     template <typename real>
     BaseSample<real> evaluateIn(const Far::PatchTable::PatchHandle& patch, int face, real u, real v, bool second) const;
-    void refinePoints(const std::vector<glm::dvec3>& positions);
+    /// Refines `positions` into points(); `dropLevels` unrefines the refiner as soon as it is no
+    /// longer read (before the copies into pointsD_ and pointsF_, which lowers the peak).
+    void refinePoints(const std::vector<glm::dvec3>& positions, bool dropLevels);
     void computeCornerNormals();
     void computeSharpMasks(const ControlMesh& mesh);
     template <typename real> const std::vector<glm::vec<3, real>>& points() const;
@@ -212,8 +214,7 @@ inline BaseSurface::BaseSurface(const ControlMesh& mesh, BaseSurfaceOptions opti
     if (!table_) throw MeshError(name_ + ": OpenSubdiv could not build a patch table");
     map_ = std::make_unique<Far::PatchMap>(*table_);
 
-    refinePoints(mesh.description().positions);
-    refiner_->Unrefine(); // the patch table and the points hold all that evaluation needs
+    refinePoints(mesh.description().positions, true); // the patch table and the points hold all evaluation needs
 
     // Holes: Ptex faces without patches.
     hole_.assign(static_cast<std::size_t>(faceCount_), 1);
@@ -267,7 +268,7 @@ inline void BaseSurface::computeSharpMasks(const ControlMesh& mesh) {
     }
 }
 
-inline void BaseSurface::refinePoints(const std::vector<glm::dvec3>& positions) {
+inline void BaseSurface::refinePoints(const std::vector<glm::dvec3>& positions, bool dropLevels) {
     // Refined vertices of all levels, then the local points of the end caps.
     const int total = refiner_->GetNumVerticesTotal();
     std::vector<detail::OsdPoint> pts(static_cast<std::size_t>(total + table_->GetNumLocalPoints()));
@@ -281,6 +282,7 @@ inline void BaseSurface::refinePoints(const std::vector<glm::dvec3>& positions) 
     }
     if (table_->GetNumLocalPoints() > 0)
         table_->GetLocalPointStencilTable<double>()->UpdateValues(pts.data(), pts.data() + total);
+    if (dropLevels) refiner_->Unrefine();
     pointsD_.clear();
     pointsF_.clear();
     pointsD_.reserve(pts.size());
@@ -318,7 +320,7 @@ inline void BaseSurface::setControlPoints(const std::vector<glm::dvec3>& positio
         refiner_->RefineAdaptive(adaptive_);
         refined_ = true;
     }
-    refinePoints(positions);
+    refinePoints(positions, false);
     computeCornerNormals();
 }
 
