@@ -45,6 +45,7 @@ struct Box {
 struct ConeTest {
     bool allAzimuths = false;
     glm::dvec2 a0{1, 0}, a1{1, 0};
+    double la0 = 1, la1 = 1; // |a0| and |a1| as computed (1 up to rounding)
     bool testLo = false, testHi = false;
     glm::dvec2 lo{1, 0}, hi{1, 0}; // (cos, sin) of el[0] - slack and el[1] + slack
 };
@@ -57,6 +58,8 @@ inline ConeTest coneTest(const ConeSet& cones, int c) {
     t.allAzimuths = az[1] - az[0] >= 2 * pi - kConeSlack;
     t.a0 = {std::cos(az[0]), std::sin(az[0])};
     t.a1 = {std::cos(az[1]), std::sin(az[1])};
+    t.la0 = glm::length(t.a0);
+    t.la1 = glm::length(t.a1);
     const double e0 = el[0] - kConeSlack, e1 = el[1] + kConeSlack;
     t.testLo = e0 > -pi / 2;
     t.testHi = e1 < pi / 2;
@@ -66,44 +69,57 @@ inline ConeTest coneTest(const ConeSet& cones, int c) {
 }
 inline double cross2(const glm::dvec2& a, const glm::dvec2& b) { return a.x * b.y - a.y * b.x; }
 // Whether direction d lies on the counter-clockwise arc from a to b (at most half a turn),
-// within kConeSlack radians at either end.
-inline bool onArc(const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& d) {
-    const double ld = glm::length(d);
-    return cross2(a, d) >= -kConeSlack * glm::length(a) * ld && cross2(d, b) >= -kConeSlack * ld * glm::length(b);
+// within kConeSlack radians at either end; la, lb, ld are the vectors' lengths.
+inline bool onArc(const glm::dvec2& a, double la, const glm::dvec2& b, double lb, const glm::dvec2& d, double ld) {
+    return cross2(a, d) >= -kConeSlack * la * ld && cross2(d, b) >= -kConeSlack * ld * lb;
 }
-// Whether some direction x / |x|, x in the box D (not containing 0), can lie in the cone: the
-// box's elevation interval (from the nearest and farthest horizontal distances) overlaps the
-// cone's band, and the box's azimuth arc (between its extreme corners) overlaps the cone's
-// sector. Conservative: it may say yes for a box that misses the cone, never no for one that
-// meets it (the arcs and band are widened by kConeSlack). atan2(z, rho) < e is tested as
-// z cos e - rho sin e < 0, which holds for rho >= 0 and |e| < pi/2.
-inline bool boxMeetsCone(const Box& D, const ConeTest& cone) {
-    const double cx = std::clamp(0.0, D.lo.x, D.hi.x), cy = std::clamp(0.0, D.lo.y, D.hi.y);
-    const double rhoMin = std::sqrt(cx * cx + cy * cy);
-    const double mx = std::max(std::abs(D.lo.x), std::abs(D.hi.x)), my = std::max(std::abs(D.lo.y), std::abs(D.hi.y));
-    const double rhoMax = std::sqrt(mx * mx + my * my);
+// What the cone test needs of a box D (not containing 0), computed once and then tested
+// against every cone: its nearest and farthest horizontal distances, and its azimuth arc
+// from its clockwise-most corner p to its counter-clockwise-most q (less than half a turn:
+// the box does not contain the axis), with their lengths.
+struct BoxShape {
+    glm::dvec3 lo, hi;
+    double rhoMin = 0, rhoMax = 0;
+    glm::dvec2 p{0}, q{0};
+    double lp = 0, lq = 0;
+    explicit BoxShape(const Box& D) : lo(D.lo), hi(D.hi) {
+        const double cx = std::clamp(0.0, D.lo.x, D.hi.x), cy = std::clamp(0.0, D.lo.y, D.hi.y);
+        rhoMin = std::sqrt(cx * cx + cy * cy);
+        const double mx = std::max(std::abs(D.lo.x), std::abs(D.hi.x)), my = std::max(std::abs(D.lo.y), std::abs(D.hi.y));
+        rhoMax = std::sqrt(mx * mx + my * my);
+        if (rhoMin == 0) return; // the arc is never read
+        const glm::dvec2 corner[4] = {{D.lo.x, D.lo.y}, {D.hi.x, D.lo.y}, {D.hi.x, D.hi.y}, {D.lo.x, D.hi.y}};
+        p = q = corner[0];
+        for (int i = 1; i < 4; ++i) {
+            if (cross2(p, corner[i]) < 0) p = corner[i];
+            if (cross2(q, corner[i]) > 0) q = corner[i];
+        }
+        lp = glm::length(p);
+        lq = glm::length(q);
+    }
+};
+// Whether some direction x / |x|, x in the box, can lie in the cone: the box's elevation
+// interval (from the nearest and farthest horizontal distances) overlaps the cone's band, and
+// the box's azimuth arc overlaps the cone's sector. Conservative: it may say yes for a box
+// that misses the cone, never no for one that meets it (the arcs and band are widened by
+// kConeSlack). atan2(z, rho) < e is tested as z cos e - rho sin e < 0, which holds for
+// rho >= 0 and |e| < pi/2.
+inline bool boxMeetsCone(const BoxShape& D, const ConeTest& cone) {
     // (rho, z) = (0, 0) is elevation 0, as atan2(0, 0): a box that touches the axis only at
     // z = 0 (the solid just below or above the voxel) has no direction up or down the axis.
     if (cone.testLo) { // the box's highest elevation below the band?
-        const double rho = D.hi.z > 0 ? rhoMin : D.hi.z < 0 ? rhoMax : 1.0;
+        const double rho = D.hi.z > 0 ? D.rhoMin : D.hi.z < 0 ? D.rhoMax : 1.0;
         if (D.hi.z * cone.lo.x - rho * cone.lo.y < 0) return false;
     }
     if (cone.testHi) { // the box's lowest elevation above the band?
-        const double rho = D.lo.z < 0 ? rhoMin : D.lo.z > 0 ? rhoMax : 1.0;
+        const double rho = D.lo.z < 0 ? D.rhoMin : D.lo.z > 0 ? D.rhoMax : 1.0;
         if (D.lo.z * cone.hi.x - rho * cone.hi.y > 0) return false;
     }
-    if (rhoMin == 0 || cone.allAzimuths) return true;
-    // The box's arc: from its clockwise-most corner p to its counter-clockwise-most q (less
-    // than half a turn: the box does not contain the axis).
-    const glm::dvec2 corner[4] = {{D.lo.x, D.lo.y}, {D.hi.x, D.lo.y}, {D.hi.x, D.hi.y}, {D.lo.x, D.hi.y}};
-    glm::dvec2 p = corner[0], q = corner[0];
-    for (int i = 1; i < 4; ++i) {
-        if (cross2(p, corner[i]) < 0) p = corner[i];
-        if (cross2(q, corner[i]) > 0) q = corner[i];
-    }
+    if (D.rhoMin == 0 || cone.allAzimuths) return true;
     // Two arcs of at most half a turn each meet iff one holds the other's start.
-    return onArc(cone.a0, cone.a1, p) || onArc(p, q, cone.a0);
+    return onArc(cone.a0, cone.la0, cone.a1, cone.la1, D.p, D.lp) || onArc(D.p, D.lp, D.q, D.lq, cone.a0, cone.la0);
 }
+inline bool boxMeetsCone(const Box& D, const ConeTest& cone) { return boxMeetsCone(BoxShape(D), cone); }
 inline double boxDistance(const Box& D) {
     const glm::dvec3 c = glm::clamp(glm::dvec3(0.0), D.lo, D.hi);
     return glm::length(c);
@@ -126,17 +142,22 @@ struct ConeSearch {
     std::uint32_t open(const Box& box, double dist) const {
         std::uint32_t mask = 0;
         if (dist >= worst) return mask;
+        const BoxShape shape(box);
         for (int c = 0; c < count(); ++c)
-            if (dist < best[static_cast<std::size_t>(c)] && boxMeetsCone(box, tests[static_cast<std::size_t>(c)])) mask |= 1u << c;
+            if (dist < best[static_cast<std::size_t>(c)] && boxMeetsCone(shape, tests[static_cast<std::size_t>(c)])) mask |= 1u << c;
         return mask;
     }
     // Offers a box inside an open one to the cones of `mask`.
     void offer(const Box& box, std::uint32_t mask) {
         const double dist = boxDistance(box);
-        for (std::uint32_t rest = mask; rest != 0; rest &= rest - 1) {
+        std::uint32_t rest = 0; // the cones of `mask` the box is near enough to improve
+        for (std::uint32_t m = mask; m != 0; m &= m - 1)
+            if (const int c = std::countr_zero(m); dist < best[static_cast<std::size_t>(c)]) rest |= 1u << c;
+        if (rest == 0) return;
+        const BoxShape shape(box);
+        for (; rest != 0; rest &= rest - 1) {
             const int c = std::countr_zero(rest);
-            if (dist < best[static_cast<std::size_t>(c)] && boxMeetsCone(box, tests[static_cast<std::size_t>(c)]))
-                best[static_cast<std::size_t>(c)] = dist;
+            if (boxMeetsCone(shape, tests[static_cast<std::size_t>(c)])) best[static_cast<std::size_t>(c)] = dist;
         }
     }
     void settle() { worst = *std::max_element(best.begin(), best.begin() + count()); }
