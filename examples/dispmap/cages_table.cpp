@@ -290,7 +290,8 @@ void printCagesTable(std::ostream& out, const CagesTableArgs& a) {
     // Synthetic tori of about 1k, 10k, 100k faces: quads (valence 4 everywhere: no isolation
     // anywhere) and triangles (Catmull-Clark makes every vertex and face centre extraordinary:
     // isolation everywhere, the worst case). Triangles at isolation 6 stop at 10k faces: 100k
-    // would hold about 12 GB (the bunny row below scales so).
+    // would hold about 3 GiB and peak near 11 GiB during the refinement (the fandisk and bunny
+    // rows below scale so).
     const int sizes[3][2] = {{40, 25}, {125, 80}, {400, 250}};
     const int triSizes[3][2] = {{25, 20}, {100, 50}, {250, 200}};
     const int count = a.quick ? 2 : 3;

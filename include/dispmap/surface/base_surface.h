@@ -89,10 +89,14 @@ class BaseSurface {
     /// The refiner of the control mesh. Only its base level (GetLevel(0)) is kept: the refined
     /// levels the patch table was built from are dropped once the points are refined (they are
     /// most of the memory at deep isolation: 1.1 of 1.5 GiB on the 13k-triangle fandisk at
-    /// level 6, `dispmap bench --only cages`), and setControlPoints brings them back.
+    /// level 6, `dispmap bench --only cages`), and setControlPoints brings them back. Until its
+    /// first call the refiner has one level: GetNumLevels() is 1 and the refined levels' accessors
+    /// (GetLevel(1..), GetNumVerticesTotal() counting them) must not be read for the points.
     const Far::TopologyRefiner& refiner() const { return *refiner_; }
     const TileTopology& topology() const { return topology_; }
-    /// Refined vertices of every level followed by the patch table's local points (double).
+    /// Refined vertices of every level followed by the patch table's local points (double): the
+    /// indices the patch table's control vertices use. They stay whole after the refiner drops
+    /// its levels (refiner()), so count them here, not through the refiner.
     const std::vector<glm::dvec3>& points() const { return pointsD_; }
     /// Whether Ptex corner c (0 at (0,0), 1 at (1,0), 2 at (1,1), 3 at (0,1)) of `face` is an
     /// extraordinary corner (see above), and the limit normal there.
@@ -131,8 +135,11 @@ class BaseSurface {
     /// the patch table's local-point stencils; the topology, patch table and patch map are
     /// kept. The first call refines the topology again (the constructor dropped its levels;
     /// the same options give the same levels) and keeps it for the next calls: an animated
-    /// surface holds the refined levels, a still one does not. Afterwards points() and cornerNormal() describe the moved surface exactly
-    /// as a BaseSurface built from the moved mesh would (bit for bit: the same arithmetic).
+    /// surface holds the refined levels, a still one does not. Afterwards points() and
+    /// cornerNormal() describe the moved surface exactly as a BaseSurface built from the moved
+    /// mesh would (bit for bit: the same arithmetic). Throws MeshError, with the levels dropped
+    /// again and nothing changed, should OpenSubdiv refine to another vertex count than the
+    /// patch table was built from.
     /// Throws ArgumentError for a wrong count or a NaN/Inf coordinate (nothing changes then).
     /// A DisplacedSurface built on this surface sees the moved surface; its auto-normal choice
     /// per face was made for the old shape.
@@ -155,6 +162,7 @@ class BaseSurface {
     std::unique_ptr<Far::TopologyRefiner> refiner_;
     Far::TopologyRefiner::AdaptiveOptions adaptive_{0}; ///< the refinement the patch table was built from
     bool refined_ = false;                              ///< refiner_ holds its refined levels again
+    int refinedVertexCount_ = 0;                        ///< GetNumVerticesTotal() of those levels
     std::unique_ptr<Far::PatchTable> table_;
     std::unique_ptr<Far::PatchMap> map_;
     TileTopology topology_;
@@ -282,7 +290,10 @@ inline void BaseSurface::refinePoints(const std::vector<glm::dvec3>& positions, 
     }
     if (table_->GetNumLocalPoints() > 0)
         table_->GetLocalPointStencilTable<double>()->UpdateValues(pts.data(), pts.data() + total);
-    if (dropLevels) refiner_->Unrefine();
+    if (dropLevels) {
+        refinedVertexCount_ = total;
+        refiner_->Unrefine();
+    }
     pointsD_.clear();
     pointsF_.clear();
     pointsD_.reserve(pts.size());
@@ -317,7 +328,14 @@ inline void BaseSurface::setControlPoints(const std::vector<glm::dvec3>& positio
         if (!std::isfinite(positions[i].x) || !std::isfinite(positions[i].y) || !std::isfinite(positions[i].z))
             throw ArgumentError(name_ + ": control point " + std::to_string(i + 1) + " has a NaN or infinite coordinate");
     if (!refined_) { // once: the same options on the same base level give the same levels
+        refiner_->Unrefine();
         refiner_->RefineAdaptive(adaptive_);
+        if (refiner_->GetNumVerticesTotal() != refinedVertexCount_) {
+            const int got = refiner_->GetNumVerticesTotal();
+            refiner_->Unrefine();
+            throw MeshError(name_ + ": refining the topology again gave " + std::to_string(got) +
+                            " vertices, the patch table was built from " + std::to_string(refinedVertexCount_));
+        }
         refined_ = true;
     }
     refinePoints(positions, false);
