@@ -649,30 +649,50 @@ inline TriangleMesh Tessellator::tessellate() const {
     Build b;
     b.corner.assign(static_cast<std::size_t>(topo.vertexCount()), -1);
     b.tiles.resize(static_cast<std::size_t>(topo.tileCount()));
-    b.pending.reserve(static_cast<std::size_t>(size.vertices));
     b.segments.reserve(static_cast<std::size_t>(2 * topo.tileCount() + 8));
     std::vector<int> live;
-    for (int t = 0; t < topo.tileCount(); ++t)
-        if (!base.isHole(t)) {
-            plan(b, t);
-            live.push_back(t);
-        }
-    // Every triangle's place is known: the tiles fill theirs in parallel.
-    b.mesh.triangles.resize(b.triangleCount);
-    b.mesh.triangleFaces.resize(b.triangleCount);
-    b.mesh.triangleUVs.resize(b.triangleCount);
-    const Parallel par(options_.threads);
-    par.each(live.size(), 8, [&](std::size_t i) { emit(b, live[i]); });
     TriangleMesh& m = b.mesh;
+    const Parallel par(options_.threads);
+    // Sizing the output arrays is mostly the kernel's first touch of their pages (tens of MiB at
+    // factor 32), so the arrays are sized side by side, as tasks of their own. The triangle
+    // count is exact from the factors, so those arrays are sized while plan() runs.
+    const std::size_t triangles = static_cast<std::size_t>(size.triangles);
+    par.each(4, 1, [&](std::size_t task) {
+        if (task == 0) {
+            b.pending.reserve(static_cast<std::size_t>(size.vertices));
+            for (int t = 0; t < topo.tileCount(); ++t)
+                if (!base.isHole(t)) {
+                    plan(b, t);
+                    live.push_back(t);
+                }
+        } else if (task == 1) {
+            m.triangles.resize(triangles);
+        } else if (task == 2) {
+            m.triangleFaces.resize(triangles);
+        } else {
+            m.triangleUVs.resize(triangles);
+        }
+    });
+    if (b.triangleCount != triangles)
+        throw Error("tessellation: " + std::to_string(b.triangleCount) + " triangles planned, " + std::to_string(triangles) +
+                    " counted from the factors (an internal inconsistency)");
+    // Every triangle's place is known: the tiles fill theirs in parallel, while the vertex
+    // arrays are sized.
     const std::size_t n = b.pending.size();
-    m.positions.resize(n);
-    m.normals.resize(n);
-    m.faces.resize(n);
-    m.uvs.resize(n);
-    m.resolutions.resize(n);
+    std::vector<char> finite;
+    par.each(7, 1, [&](std::size_t task) {
+        switch (task) {
+        case 0: par.each(live.size(), 8, [&](std::size_t i) { emit(b, live[i]); }); break;
+        case 1: m.positions.resize(n); break;
+        case 2: m.normals.resize(n); break;
+        case 3: m.faces.resize(n); break;
+        case 4: m.uvs.resize(n); break;
+        case 5: m.resolutions.resize(n); break;
+        default: finite.assign(n, 1); break;
+        }
+    });
     if (options_.normals == NormalMode::Auto) (void)surface_->autoFaces(); // the analysis, once, before the loop
     // Vertices are independent: each writes its own slot.
-    std::vector<char> finite(n, 1);
     par.each(n, 256, [&](std::size_t i) {
         const Pending& p = b.pending[i];
         const double rho = resolution(p.face, p.uv.x, p.uv.y);
