@@ -82,8 +82,9 @@ TEST_CASE("directional distances never exceed the distance along any ray from th
                         for (int s = 0; s < 6; ++s) {
                             const glm::dvec3 o(i + U(rng), j + U(rng), k + U(rng));
                             glm::dvec3 d;
-                            do {
-                                d = glm::normalize(glm::dvec3(U(rng) * 2 - 1, U(rng) * 2 - 1, U(rng) * 2 - 1));
+                            do { // every other ray near the horizon, where the bands' bounds are tight
+                                const double z = U(rng) * 2 - 1;
+                                d = glm::normalize(glm::dvec3(U(rng) * 2 - 1, U(rng) * 2 - 1, s % 2 ? z * z * z * z * z : z));
                             } while (kern::dmConeIndex(d, cones.kernelM(), cones.n) != c || (!cones.shadow && !cones.isotropic && d.z > 0));
                             const MesoHit h = marchReference<double>(hf, o, d);
                             ++checked;
@@ -95,6 +96,31 @@ TEST_CASE("directional distances never exceed the distance along any ray from th
                     }
         CHECK(zeros > 0);
         CHECK(checked > 1000);
+    }
+}
+
+TEST_CASE("directional distances bound the part of each box a cone reaches", "[meso][ddm]") {
+    // A flat floor at height 2: from a voxel g = k - 2 above it, rays of the steep band (45 to
+    // 90 degrees down) meet the floor after g at least, rays of the shallow band (0 to 45
+    // degrees) after sqrt(2) g (at 45 degrees from the voxel's bottom). The bound to the whole
+    // box below would be g for both; the cone's part of it is sqrt(2) g, less the cone slack
+    // (1e-6 rad: a relative 1e-6) and float rounding. The isotropic set keeps g.
+    const int n = 16, layers = 8;
+    const MesoHeightField hf = mesoHeightField(n, n, layers, std::vector<float>(static_cast<std::size_t>(n * n), 2.0f));
+    const ConeSet cones{4, 2, false, false};
+    const DirectionalDistanceMap m = buildDdm(hf, cones);
+    const DirectionalDistanceMap iso = buildDdm(hf, ConeSet::all());
+    for (int k = 3; k < layers; ++k) {
+        const double g = k - 2.0;
+        for (int c = 0; c < cones.count(); ++c) {
+            const bool shallow = c / cones.m == 0; // band 0: the first quarter turn below the horizon
+            const double want = shallow ? std::sqrt(2.0) * g : g;
+            INFO("layer " << k << " cone " << c);
+            const double stored = static_cast<double>(m.at(c, 5, 7, k));
+            CHECK(stored <= want);
+            CHECK(stored >= want * (1 - 4e-6));
+        }
+        CHECK(iso.at(0, 5, 7, k) == static_cast<float>(g));
     }
 }
 

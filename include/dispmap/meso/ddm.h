@@ -7,6 +7,7 @@
 #include <array>
 #include <bit>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "dispmap/meso/cones.h"
@@ -48,6 +49,11 @@ struct ConeTest {
     double la0 = 1, la1 = 1; // |a0| and |a1| as computed (1 up to rounding)
     bool testLo = false, testHi = false;
     glm::dvec2 lo{1, 0}, hi{1, 0}; // (cos, sin) of el[0] - slack and el[1] + slack
+    // The sector's edges turned outwards by the slack, when it is less than half a turn even
+    // so: the wedge sectorRho cuts a box's footprint to.
+    bool clipAzimuth = false;
+    glm::dvec2 r0{1, 0}, r1{1, 0};
+    int sector = 0; // cones of one sector share r0 and r1
 };
 inline constexpr double kConeSlack = 1e-6; // radians, > float rounding of dmConeIndex's tests
 inline ConeTest coneTest(const ConeSet& cones, int c) {
@@ -65,6 +71,11 @@ inline ConeTest coneTest(const ConeSet& cones, int c) {
     t.testHi = e1 < pi / 2;
     t.lo = {std::cos(e0), std::sin(e0)};
     t.hi = {std::cos(e1), std::sin(e1)};
+    const double b0 = az[0] - kConeSlack, b1 = az[1] + kConeSlack;
+    t.clipAzimuth = !t.allAzimuths && b1 - b0 < pi - kConeSlack;
+    t.sector = cones.isotropic ? 0 : c % cones.m;
+    t.r0 = {std::cos(b0), std::sin(b0)};
+    t.r1 = {std::cos(b1), std::sin(b1)};
     return t;
 }
 inline double cross2(const glm::dvec2& a, const glm::dvec2& b) { return a.x * b.y - a.y * b.x; }
@@ -124,6 +135,57 @@ inline double boxDistance(const Box& D) {
     const glm::dvec3 c = glm::clamp(glm::dvec3(0.0), D.lo, D.hi);
     return glm::length(c);
 }
+// The distance from the origin to the rectangle [x0, x1] x [y0, y1] of the plane within the
+// wedge between the rays of directions r0 and r1 (unit; counter-clockwise from r0 to r1, less
+// than half a turn): the rectangle's nearest point where the wedge holds it, else the nearer
+// of the points where the wedge's two rays enter the rectangle (the nearest point of a convex
+// set cut by a convex wedge lies on the wedge's boundary when the set's own nearest point is
+// outside it). +Inf where the wedge misses the rectangle.
+inline double rayEntry(const glm::dvec2& r, double x0, double y0, double x1, double y1) {
+    double t0 = 0, t1 = std::numeric_limits<double>::infinity();
+    const double lo[2] = {x0, y0}, hi[2] = {x1, y1}, dir[2] = {r.x, r.y};
+    for (int a = 0; a < 2; ++a) {
+        if (dir[a] == 0) {
+            if (lo[a] > 0 || hi[a] < 0) return std::numeric_limits<double>::infinity();
+            continue;
+        }
+        double ta = lo[a] / dir[a], tb = hi[a] / dir[a];
+        if (ta > tb) std::swap(ta, tb);
+        t0 = std::max(t0, ta);
+        t1 = std::min(t1, tb);
+    }
+    return t0 <= t1 ? t0 : std::numeric_limits<double>::infinity();
+}
+inline double wedgeRectDistance(const glm::dvec2& r0, const glm::dvec2& r1, double x0, double y0, double x1, double y1) {
+    const glm::dvec2 c(std::clamp(0.0, x0, x1), std::clamp(0.0, y0, y1));
+    if (cross2(r0, c) >= 0 && cross2(c, r1) >= 0) return glm::length(c);
+    return std::min(rayEntry(r0, x0, y0, x1, y1), rayEntry(r1, x0, y0, x1, y1));
+}
+// A lower bound on |x| over the points x of box D whose direction lies in the cone (its
+// ranges widened by the slack), at least `dist` (the distance to the whole box; 0 for a box
+// that touches the voxel), or +Inf where no point of the box is in the cone, in two halves.
+// sectorRho: the nearest horizontal distance rho of the box's points in the cone's sector (a
+// wedge of less than half a turn; shared by the cones of one sector). bandDistance: their
+// (rho, z) then lie in [rho, rhoMax] x [lo.z, hi.z] within the elevation band, a wedge of the
+// (rho, z) half-plane, and the distance to that part of the rectangle bounds |x| from below.
+// Seen from above a floor g below the voxel, a cone whose band stops 45 degrees below the
+// horizon gets sqrt(2) g instead of g.
+inline double sectorRho(const BoxShape& D, const ConeTest& cone) {
+    if (!cone.clipAzimuth || D.rhoMin == 0) return D.rhoMin;
+    const double rho = wedgeRectDistance(cone.r0, cone.r1, D.lo.x, D.lo.y, D.hi.x, D.hi.y);
+    return rho <= D.rhoMax ? rho : std::numeric_limits<double>::infinity();
+}
+inline double bandDistance(const BoxShape& D, const ConeTest& cone, double dist, double rhoMin) {
+    // A box that touches the voxel keeps 0, whatever part of it the cone sees: the marchers
+    // test the quadric (or stop) only where the distance is 0.
+    if (dist == 0) return 0;
+    if (!(rhoMin <= D.rhoMax)) return std::numeric_limits<double>::infinity();
+    // The band's rays in (rho, z); an open end is the vertical half-axis.
+    const glm::dvec2 e0 = cone.testLo ? cone.lo : glm::dvec2(0, -1), e1 = cone.testHi ? cone.hi : glm::dvec2(0, 1);
+    const double d = wedgeRectDistance(e0, e1, rhoMin, D.lo.z, D.rhoMax, D.hi.z);
+    // Rounding of the entry points: a relative 1e-12 below, far under the float the map stores.
+    return std::max(dist, d * (1.0 - 1e-12));
+}
 // One voxel's search for all cones at once (buildDdm, buildSolidDdm): per cone the smallest
 // distance over the boxes that may meet it. A box is tested only against the cones whose best
 // it could still beat, so each cone ends with what a search of its own would find.
@@ -143,8 +205,11 @@ struct ConeSearch {
         std::uint32_t mask = 0;
         if (dist >= worst) return mask;
         const BoxShape shape(box);
+        SectorCache rho;
         for (int c = 0; c < count(); ++c)
-            if (dist < best[static_cast<std::size_t>(c)] && boxMeetsCone(shape, tests[static_cast<std::size_t>(c)])) mask |= 1u << c;
+            if (dist < best[static_cast<std::size_t>(c)] && boxMeetsCone(shape, tests[static_cast<std::size_t>(c)]) &&
+                bound(shape, c, dist, rho) < best[static_cast<std::size_t>(c)])
+                mask |= 1u << c;
         return mask;
     }
     // Offers a box inside an open one to the cones of `mask`.
@@ -155,20 +220,44 @@ struct ConeSearch {
             if (const int c = std::countr_zero(m); dist < best[static_cast<std::size_t>(c)]) rest |= 1u << c;
         if (rest == 0) return;
         const BoxShape shape(box);
+        SectorCache rho;
         for (; rest != 0; rest &= rest - 1) {
             const int c = std::countr_zero(rest);
-            if (boxMeetsCone(shape, tests[static_cast<std::size_t>(c)])) best[static_cast<std::size_t>(c)] = dist;
+            if (!boxMeetsCone(shape, tests[static_cast<std::size_t>(c)])) continue;
+            best[static_cast<std::size_t>(c)] = std::min(best[static_cast<std::size_t>(c)], bound(shape, c, dist, rho));
         }
     }
     void settle() { worst = *std::max_element(best.begin(), best.begin() + count()); }
+    // The sectors' horizontal distances of one box (sectorRho), each computed on first use.
+    struct SectorCache {
+        std::array<double, 8> rho;
+        std::uint32_t known = 0;
+    };
+    // Cone c's bound for a box at distance `dist` that meets it: the part of the box the cone
+    // reaches (sectorRho, bandDistance) where the cone is narrower than every direction. A
+    // column's bound is below those of its sub-boxes, so open() skips the columns no sub-box
+    // could improve. A value at or above best[c] may be any such value (it changes nothing).
+    double bound(const BoxShape& shape, int c, double dist, SectorCache& cache) const {
+        const ConeTest& cone = tests[static_cast<std::size_t>(c)];
+        if (dist == 0 || !(cone.clipAzimuth || cone.testLo || cone.testHi)) return dist;
+        const std::size_t s = static_cast<std::size_t>(cone.sector);
+        if (!(cache.known >> s & 1u)) {
+            cache.rho[s] = sectorRho(shape, cone);
+            cache.known |= 1u << s;
+        }
+        // |x| >= rho: a sector whose nearest point is already too far needs no band.
+        if (cache.rho[s] >= best[static_cast<std::size_t>(c)]) return cache.rho[s];
+        return bandDistance(shape, cone, dist, cache.rho[s]);
+    }
 };
 } // namespace detail
 
 /// Builds the conservative DDM of a height field. The solid of column (i, j) lies inside the
 /// boxes of its `subcells` x `subcells` sub-rectangles, each from -Inf up to the largest
 /// height of the bilinear patch over it (at one of its corners); for each voxel V and cone C
-/// the map stores the smallest distance |x| over the difference boxes D = box - V whose
-/// directions may lie in C (detail::boxMeetsCone), found by a search in rings of columns
+/// the map stores the smallest, over the difference boxes D = box - V whose directions may lie
+/// in C (detail::boxMeetsCone), of a lower bound on |x| over the points x of D in C
+/// (detail::ConeSearch::bound; 0 where D holds the origin), found by a search in rings of columns
 /// that stops when the ring is farther than the best. Cap default: `layers` voxels. Rows of
 /// voxels on `threads` threads (core/parallel.h; the same map for every count).
 inline DirectionalDistanceMap buildDdm(const MesoHeightField& hf, const ConeSet& cones, int subcells = 2, float cap = 0,
