@@ -178,19 +178,40 @@ TEST_CASE("compression: atlas blocks read back bit for bit, the rest their block
     const MesoHeightField hf = dmtest::hardField(16, 16, 8);
     const ConeSet cones{4, 1, true, false};
     const DirectionalDistanceMap m = buildDdm(hf, cones);
-    const CompressedDdm c = compressDdm(m, 4);
+    const float paper = std::numeric_limits<float>::infinity();
+    const CompressedDdm c = compressDdm(m, 4, paper);
     CHECK(c.atlasBlocks() > 0);
     CHECK(c.ratio() > 1.0);
-    for (int cone = 0; cone < cones.count(); ++cone)
-        for (int k = 0; k < m.layers; ++k)
-            for (int j = 0; j < m.height; ++j)
-                for (int i = 0; i < m.width; ++i) {
-                    const int bx = i / 4, by = j / 4, bz = k / 4;
-                    float lo = std::numeric_limits<float>::infinity();
-                    for (int e = 0; e < 64; ++e) lo = std::min(lo, m.at(cone, bx * 4 + e % 4, by * 4 + e / 4 % 4, bz * 4 + e / 16));
-                    const float got = c.lookup(cone, i, j, k), want = lo == 0 ? m.at(cone, i, j, k) : lo;
-                    REQUIRE(std::memcmp(&got, &want, sizeof got) == 0);
-                }
+    // Each block stored whole when it holds a 0 (the paper's rule) or, with a finite spread,
+    // when its values differ by more than the spread; else as its minimum.
+    std::size_t previous = 0;
+    for (const float spread : {paper, 2.0f, 1.0f, 0.0f}) {
+        const CompressedDdm cs = compressDdm(m, 4, spread);
+        int exactReads = 0, minimumReads = 0;
+        for (int cone = 0; cone < cones.count(); ++cone)
+            for (int k = 0; k < m.layers; ++k)
+                for (int j = 0; j < m.height; ++j)
+                    for (int i = 0; i < m.width; ++i) {
+                        const int bx = i / 4, by = j / 4, bz = k / 4;
+                        float lo = std::numeric_limits<float>::infinity(), hi = 0;
+                        for (int e = 0; e < 64; ++e) {
+                            const float x = m.at(cone, bx * 4 + e % 4, by * 4 + e / 4 % 4, bz * 4 + e / 16);
+                            lo = std::min(lo, x);
+                            hi = std::max(hi, x);
+                        }
+                        const bool whole = (lo == 0 && hi > 0) || hi - lo > spread;
+                        const float got = cs.lookup(cone, i, j, k), want = whole ? m.at(cone, i, j, k) : lo;
+                        exactReads += whole;
+                        minimumReads += !whole && want != m.at(cone, i, j, k);
+                        REQUIRE(std::memcmp(&got, &want, sizeof got) == 0);
+                    }
+        INFO("spread " << spread);
+        CHECK(cs.atlasBlocks() >= previous); // a smaller spread stores more blocks whole
+        previous = cs.atlasBlocks();
+        CHECK(exactReads > 0);
+        if (spread == 0) CHECK(minimumReads == 0); // every block with two values is whole
+        if (std::isinf(spread)) CHECK(minimumReads > 0); // the paper's rule keeps some minima
+    }
     // The march finds the same hits through the compressed and the dense map.
     const ColumnQuadrics q = buildColumnQuadrics(hf);
     std::mt19937 rng(9);
@@ -204,6 +225,8 @@ TEST_CASE("compression: atlas blocks read back bit for bit, the rest their block
         REQUIRE(a.t == Approx(b.t).margin(1e-9));
     }
     CHECK_THROWS_AS(compressDdm(m, 3), ArgumentError);
+    CHECK_THROWS_AS(compressDdm(m, 4, -1.0f), ArgumentError);
+    CHECK_THROWS_AS(compressDdm(m, 4, std::numeric_limits<float>::quiet_NaN()), ArgumentError);
 }
 
 TEST_CASE("quadrics of bilinear and triangular patches contain their patches", "[meso][quadric]") {

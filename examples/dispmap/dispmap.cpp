@@ -438,6 +438,7 @@ struct MesoArgs {
     std::string height, mesh, output, cones = "4x1", csv, images, data = DISPMAP_EXAMPLE_DATA;
     int layers = 16, block = 4, size = 0;
     double depth = -1;
+    float spread = kDefaultCompressionSpread;
     bool shadow = false, table = false;
 };
 
@@ -464,10 +465,12 @@ int mesoCommand(const MesoArgs& a) {
         throw ArgumentError("dispmap meso: --depth " + std::to_string(a.depth) + " is not in (0, --layers = " + std::to_string(a.layers) + "]");
     if (!a.mesh.empty() && a.depth != -1) throw ArgumentError("dispmap meso: --depth applies to --height, not to --mesh");
     if (a.block < 1 || a.block > 32) throw ArgumentError("dispmap meso: --block " + std::to_string(a.block) + " is not in 1..32");
+    if (!(a.spread >= 0.0f)) throw ArgumentError("dispmap meso: --spread " + std::to_string(a.spread) + " is not >= 0 (inf: the paper's rule)");
     if (!a.output.empty()) detail::checkOutputPath(a.output, "mesostructure file");
     MesoMapOptions o;
     o.cones = parseConeSet(a.cones, a.shadow);
     o.block = a.block;
+    o.compressionSpread = a.spread;
     const auto check = [&](int width, int height) {
         if (const std::string why = mesoBuildProblem(width, height, a.layers, o); !why.empty())
             throw ArgumentError("dispmap meso: " + why + " (--size, --layers, --block, --cones)");
@@ -502,7 +505,7 @@ int mesoCommand(const MesoArgs& a) {
         const MesoSolid solid = mesoSolidFromMesh(soup.positions, soup.triangles, size, size, a.layers, sub);
         const DistanceMap dm = buildSolidDistanceMap(solid);
         const DirectionalDistanceMap ddm = buildSolidDdm(solid, o.cones);
-        const CompressedDdm c = compressDdm(ddm, a.block);
+        const CompressedDdm c = compressDdm(ddm, a.block, a.spread);
         const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         std::cout << "mesh mesostructure " << solid.triangles.size() << " triangles -> " << size << " x " << size << " x " << a.layers
                   << " voxels (" << 100 * solid.solidShare() << " % solid), cones " << o.cones.name() << ": distance map "
@@ -648,6 +651,8 @@ int main(int argc, char** argv) {
     mesoCmd->add_option("--cones", ma.cones, "direction cones MxN (M in 1,2,4,8; N in 1,2) or isotropic");
     mesoCmd->add_flag("--shadow", ma.shadow, "also the shadow cones (upward)");
     mesoCmd->add_option("--block", ma.block, "compression block size");
+    mesoCmd->add_option("--spread", ma.spread,
+                        "compression: free-space blocks whose distances spread by more voxels are stored whole (inf: the paper's rule)");
     mesoCmd->add_option("--size", ma.size, "box-filter the image to SIZE x SIZE texels first");
     mesoCmd->add_option("-o,--output", ma.output, "write the maps (mesostructure file)");
     mesoCmd->add_flag("--table", ma.table, "the table: every method on the built-in scenes, iterations, error, memory, time");

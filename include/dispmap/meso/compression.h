@@ -9,8 +9,11 @@ namespace dispmap {
 /// grid of block x block x block blocks; a block holding both 0 and non-zero values (a surface
 /// may pass through it) is stored whole in the atlas and its grid word holds its atlas index
 /// with bit 31 set; a block of zeros only (inside the solid) keeps 0, and any other block only
-/// its minimum (the word holds the float's bits), which is again conservative. Atlas voxels
-/// and zero blocks read back bit for bit; the rest read their block's minimum.
+/// its minimum (the word holds the float's bits), which is again conservative, unless its
+/// values spread by more than compressDdm's maxSpread: then it is stored whole too (a block
+/// whose minimum sits far below most of its values would make the march take short steps
+/// there). Atlas voxels and zero blocks read back bit for bit; the rest read their block's
+/// minimum.
 struct CompressedDdm {
     int width = 0, height = 0, layers = 0, block = 4;
     int gx = 0, gy = 0, gz = 0; ///< grid size in blocks
@@ -45,10 +48,20 @@ struct CompressedDdm {
     std::size_t atlasBlocks() const { return atlas.size() / static_cast<std::size_t>(block * block * block); }
 };
 
-inline CompressedDdm compressDdm(const DirectionalDistanceMap& m, int block = 4) {
+/// The spread (largest minus smallest value, in voxels) above which a block of free space is
+/// stored whole (compressDdm's default; `dispmap meso --table` prints the memory and the
+/// iterations each choice gives).
+inline constexpr float kDefaultCompressionSpread = 2.0f;
+
+/// Compresses `m` in blocks of `block`^3 voxels (block divides the sizes). `maxSpread` >= 0
+/// (voxels; +Inf: only blocks that hold a 0 and a non-zero value go to the atlas, the paper's
+/// rule). ArgumentError otherwise.
+inline CompressedDdm compressDdm(const DirectionalDistanceMap& m, int block = 4, float maxSpread = kDefaultCompressionSpread) {
     if (block < 1 || block > 32 || m.width % block || m.height % block || m.layers % block)
         throw ArgumentError("compressDdm: block " + std::to_string(block) + " must divide " + std::to_string(m.width) + " x " +
                             std::to_string(m.height) + " x " + std::to_string(m.layers));
+    if (!(maxSpread >= 0.0f))
+        throw ArgumentError("compressDdm: the largest spread of a block stored as one value must be >= 0 voxels (+Inf: the paper's rule)");
     CompressedDdm c;
     c.width = m.width;
     c.height = m.height;
@@ -76,7 +89,7 @@ inline CompressedDdm compressDdm(const DirectionalDistanceMap& m, int block = 4)
                             for (int i = 0; i < block; ++i)
                                 hi = std::max(hi, m.at(cone, bx * block + i, by * block + j, bz * block + k));
                     std::uint32_t word;
-                    if (lo > 0.0f || hi == 0.0f) { // free space, or all 0 (inside the solid): one value
+                    if (hi == 0.0f || (lo > 0.0f && hi - lo <= maxSpread)) { // all 0 (inside the solid), or even free space: one value
                         std::memcpy(&word, &lo, sizeof word);
                     } else {
                         const std::size_t index = c.atlasBlocks();

@@ -192,6 +192,9 @@ template <class real> MesoHit marchHeightSearch(const MesoHeightField& hf, const
 struct MesoMapOptions {
     ConeSet cones{4, 1, true, false}; ///< view and shadow cones of the DDM
     int block = 4;                    ///< compression block size (must divide the sizes)
+    /// Free-space blocks whose values spread by more than this (voxels) are stored whole
+    /// (compressDdm; +Inf: the paper's rule, least memory, more iterations).
+    float compressionSpread = kDefaultCompressionSpread;
     int distanceSubsamples = 4;       ///< Donnelly's map: column-model samples per texel
     bool distance = true, ddm = true, quadrics = true;
     int threads = 0; ///< threads of the map builders (core/parallel.h; the same maps for every count)
@@ -216,7 +219,7 @@ inline MesoMaps buildMesoMaps(const MesoHeightField& field, const MesoMapOptions
     if (options.ddm) {
         const DirectionalDistanceMap dense = buildDdm(field, options.cones, 2, 0, options.threads);
         m.denseDdmBytes = dense.bytes();
-        m.ddm = compressDdm(dense, options.block);
+        m.ddm = compressDdm(dense, options.block, options.compressionSpread);
     } else {
         options.cones.validate();
         CompressedDdm& c = m.ddm;
