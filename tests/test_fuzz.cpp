@@ -434,6 +434,13 @@ TEST_CASE("strict input: mesostructure options are checked before any map is bui
     o.block = 64;
     CHECK_THAT(mesoBuildProblem(512, 512, 16, o), Contains("compression block 64"));
     o.block = 4;
+    o.compressionSpread = -1.0f;
+    CHECK_THAT(mesoBuildProblem(512, 512, 16, o), Contains("compression spread -1.000000 must be >= 0 voxels"));
+    o.compressionSpread = std::numeric_limits<float>::quiet_NaN();
+    CHECK_THAT(mesoBuildProblem(512, 512, 16, o), Contains("must be >= 0 voxels"));
+    o.compressionSpread = std::numeric_limits<float>::infinity(); // the paper's rule
+    CHECK(mesoBuildProblem(512, 512, 16, o).empty());
+    o.compressionSpread = kDefaultCompressionSpread;
     o.ddm = false; // no DDM: the block is not used
     CHECK(mesoBuildProblem(510, 510, 16, o).empty());
     o = MesoMapOptions{};

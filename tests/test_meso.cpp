@@ -186,6 +186,7 @@ TEST_CASE("compression: atlas blocks read back bit for bit, the rest their block
     // when its values differ by more than the spread; else as its minimum.
     std::size_t previous = 0;
     for (const float spread : {paper, 2.0f, 1.0f, 0.0f}) {
+        INFO("spread " << spread);
         const CompressedDdm cs = compressDdm(m, 4, spread);
         int exactReads = 0, minimumReads = 0;
         for (int cone = 0; cone < cones.count(); ++cone)
@@ -205,7 +206,6 @@ TEST_CASE("compression: atlas blocks read back bit for bit, the rest their block
                         minimumReads += !whole && want != m.at(cone, i, j, k);
                         REQUIRE(std::memcmp(&got, &want, sizeof got) == 0);
                     }
-        INFO("spread " << spread);
         CHECK(cs.atlasBlocks() >= previous); // a smaller spread stores more blocks whole
         previous = cs.atlasBlocks();
         CHECK(exactReads > 0);

@@ -652,7 +652,8 @@ int main(int argc, char** argv) {
     mesoCmd->add_flag("--shadow", ma.shadow, "also the shadow cones (upward)");
     mesoCmd->add_option("--block", ma.block, "compression block size");
     mesoCmd->add_option("--spread", ma.spread,
-                        "compression: free-space blocks whose distances spread by more voxels are stored whole (inf: the paper's rule)");
+                        "compression: free-space blocks whose distances spread by more voxels are stored whole (inf: the paper's "
+                        "rule; --table prints every spread)");
     mesoCmd->add_option("--size", ma.size, "box-filter the image to SIZE x SIZE texels first");
     mesoCmd->add_option("-o,--output", ma.output, "write the maps (mesostructure file)");
     mesoCmd->add_flag("--table", ma.table, "the table: every method on the built-in scenes, iterations, error, memory, time");

@@ -387,8 +387,8 @@ DM_TFUNC real dmPomIntersect(rvec2 bracket, real aboveA, real aboveB) {
 
 // The compressed DDM (Mehra & Kumar §4, Appendix A): per cone a lookup grid of B^3 blocks; a
 // grid word with bit 31 set holds the block's index in the atlas (blocks a surface passes
-// through, stored in full), otherwise the bits of the block's minimum distance (a non-negative
-// float, whose sign bit is 0). Returns the distance, or -1 with atlasIndex set.
+// through, and blocks whose distances spread widely, stored in full), otherwise the bits of the
+// block's minimum distance (a non-negative float, whose sign bit is 0). Returns the distance, or -1 with atlasIndex set.
 DM_FUNC float dmGridWordDistance(uint w, DM_OUT(int) atlasIndex) {
     atlasIndex = -1;
     if ((w >> 31u) != 0u) {

@@ -187,7 +187,8 @@ inline double bandDistance(const BoxShape& D, const ConeTest& cone, double dist,
     return std::max(dist, d * (1.0 - 1e-12));
 }
 // One voxel's search for all cones at once (buildDdm, buildSolidDdm): per cone the smallest
-// distance over the boxes that may meet it. A box is tested only against the cones whose best
+// bound (bound(): the distance to the part of the box the cone reaches) over the boxes that
+// may meet it. A box is tested only against the cones whose best
 // it could still beat, so each cone ends with what a search of its own would find.
 struct ConeSearch {
     const std::vector<ConeTest>& tests;
@@ -301,7 +302,8 @@ inline DirectionalDistanceMap buildDdm(const MesoHeightField& hf, const ConeSet&
     for (int c = 0; c < C; ++c) tests.push_back(detail::coneTest(cones, c));
     // One row of voxels (layer, row) a task: each voxel is independent. All cones of a voxel
     // share one search: the rings go on while any cone's best may still improve, every box's
-    // distance is computed once and tested against the cones it could still improve. Each
+    // distance and shape are computed once and tested against the cones it could still improve
+    // (each of those cones then bounds its own part of the box). Each
     // cone ends with the smallest distance over the boxes that may meet it, as a search of its
     // own would (boxes are only skipped when they cannot beat the cone's best).
     detail::parallelRows(hf.layers * hf.height, threads, [&](int row) {

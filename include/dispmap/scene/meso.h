@@ -57,8 +57,8 @@ inline constexpr int kMaxMesoBinarySteps = 32;
 inline constexpr std::uint64_t kMaxMesoBuildBytes = std::uint64_t{4} << 30;
 
 /// The peak memory of buildMesoMaps for a width x height x layers field and these options,
-/// estimated from the sizes alone (from above: the compressed DDM counted as large as the
-/// dense one): the dense and compressed DDM, the distance map with its per-layer transforms
+/// estimated from the sizes alone (from above: the compressed DDM's atlas counted as large as
+/// the dense map, plus its grid): the dense and compressed DDM, the distance map with its per-layer transforms
 /// on as many threads as o.threads allows (at most one per layer), heights and quadrics.
 inline std::uint64_t mesoBuildBytes(int width, int height, int layers, const MesoMapOptions& o) {
     const std::uint64_t texels = static_cast<std::uint64_t>(std::max(width, 0)) * static_cast<std::uint64_t>(std::max(height, 0));
@@ -67,7 +67,9 @@ inline std::uint64_t mesoBuildBytes(int width, int height, int layers, const Mes
     std::uint64_t bytes = 2 * 4 * texels; // the field, and its copy in the maps
     const std::uint64_t running = static_cast<std::uint64_t>(std::clamp(o.threads == 0 ? allCores() : o.threads, 1, std::max(layers, 1)));
     if (o.distance) bytes += 4 * voxels + 8 * S * S * texels * (1 + 2 * running); // map; fine heights; 2 transforms a running layer
-    if (o.ddm) bytes += 2 * 4 * voxels * static_cast<std::uint64_t>(std::max(o.cones.count(), 1)); // dense + compressed (at most as big)
+    // Dense + compressed: the atlas at most as big as the dense map, plus a grid word a block.
+    const std::uint64_t b = static_cast<std::uint64_t>(std::clamp(o.block, 1, 32));
+    if (o.ddm) bytes += (2 * 4 * voxels + 4 * voxels / (b * b * b) + 4) * static_cast<std::uint64_t>(std::max(o.cones.count(), 1));
     if (o.quadrics) bytes += 48 * texels;
     return bytes;
 }
@@ -85,7 +87,8 @@ inline std::uint64_t mesoSolidBuildBytes(int width, int height, int layers, int 
 
 /// Why maps of a width x height x layers field cannot be built with these options, or "":
 /// sizes and layers out of range, unsupported cones, a compression block outside 1..32 or not
-/// dividing width, height and layers (with a DDM), distance-map subsamples outside 1..16, or
+/// dividing width, height and layers (with a DDM), a compression spread < 0 or NaN (with a
+/// DDM), distance-map subsamples outside 1..16, or
 /// more than kMaxMesoBuildBytes of memory. Everything buildMesoMaps would throw on, found
 /// before it starts (the maps take seconds to minutes).
 inline std::string mesoBuildProblem(int width, int height, int layers, const MesoMapOptions& o) {
@@ -98,6 +101,8 @@ inline std::string mesoBuildProblem(int width, int height, int layers, const Mes
     if (o.ddm && (o.block < 1 || o.block > 32 || width % o.block || height % o.block || layers % o.block))
         return "compression block " + std::to_string(o.block) + " must be in 1..32 and divide the width, height and layers (" +
                std::to_string(width) + " x " + std::to_string(height) + " x " + std::to_string(layers) + ")";
+    if (o.ddm && !(o.compressionSpread >= 0.0f))
+        return "compression spread " + std::to_string(o.compressionSpread) + " must be >= 0 voxels (+Inf: the paper's rule)";
     if (o.distance && (o.distanceSubsamples < 1 || o.distanceSubsamples > 16))
         return "distance map subsamples " + std::to_string(o.distanceSubsamples) + " not in 1..16";
     if (const std::uint64_t bytes = mesoBuildBytes(width, height, layers, o); bytes > kMaxMesoBuildBytes)
