@@ -135,12 +135,8 @@ inline double boxDistance(const Box& D) {
     const glm::dvec3 c = glm::clamp(glm::dvec3(0.0), D.lo, D.hi);
     return glm::length(c);
 }
-// The distance from the origin to the rectangle [x0, x1] x [y0, y1] of the plane within the
-// wedge between the rays of directions r0 and r1 (unit; counter-clockwise from r0 to r1, less
-// than half a turn): the rectangle's nearest point where the wedge holds it, else the nearer
-// of the points where the wedge's two rays enter the rectangle (the nearest point of a convex
-// set cut by a convex wedge lies on the wedge's boundary when the set's own nearest point is
-// outside it). +Inf where the wedge misses the rectangle.
+// Where the ray t r (t >= 0) enters the rectangle [x0, x1] x [y0, y1] (0 if it starts inside),
+// or +Inf where it misses it.
 inline double rayEntry(const glm::dvec2& r, double x0, double y0, double x1, double y1) {
     double t0 = 0, t1 = std::numeric_limits<double>::infinity();
     const double lo[2] = {x0, y0}, hi[2] = {x1, y1}, dir[2] = {r.x, r.y};
@@ -156,6 +152,12 @@ inline double rayEntry(const glm::dvec2& r, double x0, double y0, double x1, dou
     }
     return t0 <= t1 ? t0 : std::numeric_limits<double>::infinity();
 }
+// The distance from the origin to the rectangle [x0, x1] x [y0, y1] of the plane within the
+// wedge between the rays of directions r0 and r1 (unit; counter-clockwise from r0 to r1, less
+// than half a turn): the rectangle's nearest point where the wedge holds it, else the nearer
+// of the points where the wedge's two rays enter the rectangle (the nearest point of a convex
+// set cut by a convex wedge lies on the wedge's boundary when the set's own nearest point is
+// outside it). +Inf where the wedge misses the rectangle.
 inline double wedgeRectDistance(const glm::dvec2& r0, const glm::dvec2& r1, double x0, double y0, double x1, double y1) {
     const glm::dvec2 c(std::clamp(0.0, x0, x1), std::clamp(0.0, y0, y1));
     if (cross2(r0, c) >= 0 && cross2(c, r1) >= 0) return glm::length(c);
@@ -175,11 +177,8 @@ inline double sectorRho(const BoxShape& D, const ConeTest& cone) {
     const double rho = wedgeRectDistance(cone.r0, cone.r1, D.lo.x, D.lo.y, D.hi.x, D.hi.y);
     return rho <= D.rhoMax ? rho : std::numeric_limits<double>::infinity();
 }
+// rhoMin: sectorRho's value, finite (bound() stops at +Inf).
 inline double bandDistance(const BoxShape& D, const ConeTest& cone, double dist, double rhoMin) {
-    // A box that touches the voxel keeps 0, whatever part of it the cone sees: the marchers
-    // test the quadric (or stop) only where the distance is 0.
-    if (dist == 0) return 0;
-    if (!(rhoMin <= D.rhoMax)) return std::numeric_limits<double>::infinity();
     // The band's rays in (rho, z); an open end is the vertical half-axis.
     const glm::dvec2 e0 = cone.testLo ? cone.lo : glm::dvec2(0, -1), e1 = cone.testHi ? cone.hi : glm::dvec2(0, 1);
     const double d = wedgeRectDistance(e0, e1, rhoMin, D.lo.z, D.rhoMax, D.hi.z);
@@ -240,13 +239,16 @@ struct ConeSearch {
     // could improve. A value at or above best[c] may be any such value (it changes nothing).
     double bound(const BoxShape& shape, int c, double dist, SectorCache& cache) const {
         const ConeTest& cone = tests[static_cast<std::size_t>(c)];
+        // A box that touches the voxel keeps 0, whatever part of it the cone sees: the marchers
+        // test the quadric (or stop) only where the distance is 0.
         if (dist == 0 || !(cone.clipAzimuth || cone.testLo || cone.testHi)) return dist;
         const std::size_t s = static_cast<std::size_t>(cone.sector);
         if (!(cache.known >> s & 1u)) {
             cache.rho[s] = sectorRho(shape, cone);
             cache.known |= 1u << s;
         }
-        // |x| >= rho: a sector whose nearest point is already too far needs no band.
+        // |x| >= rho: a sector whose nearest point is already too far (or that misses the box:
+        // +Inf; best is finite) needs no band.
         if (cache.rho[s] >= best[static_cast<std::size_t>(c)]) return cache.rho[s];
         return bandDistance(shape, cone, dist, cache.rho[s]);
     }
