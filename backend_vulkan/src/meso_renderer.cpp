@@ -1,6 +1,7 @@
 // MesoRenderer: the maps' buffers, five offscreen colour targets (colour, hit, ray origin, ray
-// direction, counts) drawn with dynamic rendering, the graphics pipeline of one technique
-// (specialisation constants), frames with timestamps and the read-back (gpu_objects.h).
+// direction, counts; plus depth on a base mesh) drawn with dynamic rendering, the graphics
+// pipeline of one technique (specialisation constants), frames with timestamps and the
+// read-back (gpu_objects.h).
 #include "dispmap/vulkan/meso_renderer.h"
 
 #include <algorithm>
@@ -13,11 +14,13 @@
 #include <glm/ext/matrix_clip_space.hpp>
 #include <glm/ext/matrix_transform.hpp>
 
+#include "dispmap/surface/draw.h"
 #include "dispmap/vulkan/buffer.h"
 #include "dispmap/vulkan/meso_maps.h"
 #include "gpu_objects.h"
 
 // SPIR-V of shaders/meso/ (NoContraction on every float operation: backend_vulkan/tools/spirv_exact.cpp).
+#include "meso_base_vert_spv.h"
 #include "meso_frag_spv.h"
 #include "meso_vert_spv.h"
 
@@ -34,6 +37,11 @@ struct GpuMesoParams { // shaders/meso/common.glsl
     glm::vec4 tol;
 };
 static_assert(sizeof(GpuMesoParams) == 64 + 5 * 16 + 3 * 16 + 16);
+
+struct GpuFrameVertex { // shaders/meso/common.glsl, DmFrameVertex
+    glm::vec4 position, pS, pT, normal;
+};
+static_assert(sizeof(GpuFrameVertex) == 64);
 
 constexpr std::uint32_t kTargets = 5;
 const VkFormat kFormats[kTargets] = {VK_FORMAT_R8G8B8A8_UNORM, VK_FORMAT_R32G32B32A32_SFLOAT, VK_FORMAT_R32G32B32A32_SFLOAT,
@@ -55,8 +63,23 @@ void validate(const MesoMaps& maps, const MesoRenderOptions& o) {
     if (!(o.tileSize > 0) || !(o.depth > 0) || !(o.planeHalfSize > 0) || o.quads < 1 || o.quads > 256 ||
         !std::isfinite(o.tileSize + o.depth + o.planeHalfSize))
         throw ArgumentError("meso renderer: tile size, depth and plane size must be finite and > 0, quads in 1..256");
-    if (!(o.camera.eye.z > 0) || !std::isfinite(o.camera.eye.x + o.camera.eye.y + o.camera.eye.z))
-        throw ArgumentError("meso renderer: the camera must be above the plane z = 0 (eye.z > 0)");
+    if (!std::isfinite(o.camera.eye.x + o.camera.eye.y + o.camera.eye.z)) throw ArgumentError("meso renderer: the camera must be finite");
+    if (!(o.checkerVoxels >= 0 && o.checkerVoxels <= 1e6)) throw ArgumentError("meso renderer: the checker period must be in [0, 1e6] voxels");
+    if (!o.base && !(o.camera.eye.z > 0)) throw ArgumentError("meso renderer: the camera must be above the plane z = 0 (eye.z > 0)");
+    if (o.base) {
+        const std::size_t n = o.base->corners.size();
+        if (n == 0 || n % 3 != 0 || n > kMaxFrameCorners)
+            throw ArgumentError("meso renderer: the base mesh has " + std::to_string(n) + " corners (three a triangle, 3 .. " +
+                                std::to_string(kMaxFrameCorners) + ")");
+        for (std::size_t i = 0; i < n; ++i) {
+            const FrameVertex& v = o.base->corners[i];
+            const double sum = glm::dot(glm::dvec3(1.0), glm::abs(v.position) + glm::abs(v.pS) + glm::abs(v.pT) + glm::abs(v.normal)) +
+                               std::abs(v.tex.x) + std::abs(v.tex.y);
+            if (!(sum <= kMaxDrawValue))
+                throw ArgumentError("meso renderer: base mesh corner " + std::to_string(i) + " has a value that is not finite or beyond +-" +
+                                    dispmap::detail::drawNumber(kMaxDrawValue) + " (the GPU holds it as a float)");
+        }
+    }
     if (!(o.camera.fovYDeg > 0 && o.camera.fovYDeg < 180)) throw ArgumentError("meso renderer: field of view must be in (0, 180) degrees");
     if (!(glm::length(o.lightDirection) > 0) || !std::isfinite(glm::length(o.lightDirection)))
         throw ArgumentError("meso renderer: the light direction must be finite and non-zero");
@@ -64,7 +87,7 @@ void validate(const MesoMaps& maps, const MesoRenderOptions& o) {
         if (!maps.ddm.cones.shadow && !maps.ddm.cones.isotropic)
             throw ArgumentError("meso renderer: shadows need a DDM with shadow cones (build the maps with ConeSet::shadow = true), "
                                 "these have " + maps.ddm.cones.name());
-        if (!(o.lightDirection.z > 0)) throw ArgumentError("meso renderer: shadows need a light above the horizon (z > 0)");
+        if (!o.base && !(o.lightDirection.z > 0)) throw ArgumentError("meso renderer: shadows need a light above the horizon (z > 0)");
         if (o.shadowIterations < 1) throw ArgumentError("meso renderer: shadow iterations must be >= 1");
     }
     (void)mesoGpuSize(maps); // sizes agree
@@ -73,11 +96,17 @@ void validate(const MesoMaps& maps, const MesoRenderOptions& o) {
 } // namespace
 
 glm::dvec3 mesoVoxelsPerUnit(const MesoMaps& maps, const MesoRenderOptions& o) {
-    return {double(maps.field.width) / o.tileSize, double(maps.field.height) / o.tileSize, double(maps.field.layers) / o.depth};
+    const double tile = o.base ? 1.0 : o.tileSize;
+    return {double(maps.field.width) / tile, double(maps.field.height) / tile, double(maps.field.layers) / o.depth};
 }
 
 glm::dmat4 mesoViewProjection(const MesoRenderOptions& o) {
-    const double far = 4.0 * (glm::length(o.camera.eye - o.camera.target) + 2.0 * o.planeHalfSize);
+    double far = 4.0 * (glm::length(o.camera.eye - o.camera.target) + 2.0 * o.planeHalfSize);
+    if (o.base) { // beyond the farthest corner, with room for the slab below it
+        far = 0.0;
+        for (const FrameVertex& v : o.base->corners) far = std::max(far, glm::length(v.position - o.camera.eye));
+        far = 2.0 * far + 2.0 * o.depth;
+    }
     glm::dmat4 proj = glm::perspectiveRH_ZO(glm::radians(o.camera.fovYDeg), double(o.width) / double(o.height), 1e-3, far);
     proj[1][1] = -proj[1][1]; // Vulkan's y points down
     return proj * glm::lookAtRH(o.camera.eye, o.camera.target, o.camera.up);
@@ -88,6 +117,7 @@ struct MesoRenderer::Impl {
     MesoRenderOptions options;
     MesoBuffers maps;
     std::unique_ptr<Buffer> params;
+    std::unique_ptr<Buffer> frame; // the base mesh's corners, or a placeholder
     std::unique_ptr<OffscreenTargets> targets;
     std::unique_ptr<DescriptorSet> descriptors;
     std::unique_ptr<GraphicsPipeline> pipeline;
@@ -118,14 +148,26 @@ struct MesoRenderer::Impl {
         p.tol = glm::vec4(s.tol, float(options.shadowOffset), 0.0f, 0.0f);
         params = std::make_unique<Buffer>(ctx, sizeof p);
         params->upload(&p, sizeof p);
+        std::vector<GpuFrameVertex> corners(options.base ? options.base->corners.size() : 1);
+        if (options.base)
+            for (std::size_t i = 0; i < corners.size(); ++i) {
+                const FrameVertex& v = options.base->corners[i];
+                corners[i] = {glm::vec4(glm::vec3(v.position), float(v.tex.x)), glm::vec4(glm::vec3(v.pS), float(v.tex.y)),
+                              glm::vec4(glm::vec3(v.pT), 0.0f), glm::vec4(glm::vec3(v.normal), 0.0f)};
+            }
+        frame = std::make_unique<Buffer>(ctx, corners.size() * sizeof(GpuFrameVertex));
+        frame->upload(corners.data(), corners.size() * sizeof(GpuFrameVertex));
     }
 
     void create() {
-        targets = std::make_unique<OffscreenTargets>(ctx, options.width, options.height, kFormats, VK_FORMAT_UNDEFINED);
-        const auto mb = maps.all(); // maps 0..4, params 5
-        std::array<VkBuffer, 6> storage{};
+        const VkFormat depth = options.base ? VK_FORMAT_D32_SFLOAT : VK_FORMAT_UNDEFINED;
+        if (options.base) requireFormat(ctx, depth, VK_FORMAT_FEATURE_DEPTH_STENCIL_ATTACHMENT_BIT, "the mesostructure renderer's depth");
+        targets = std::make_unique<OffscreenTargets>(ctx, options.width, options.height, kFormats, depth);
+        const auto mb = maps.all(); // maps 0..4, params 5, base mesh 6
+        std::array<VkBuffer, 7> storage{};
         for (std::size_t i = 0; i < 5; ++i) storage[i] = mb[i]->handle();
         storage[5] = params->handle();
+        storage[6] = frame->handle();
         descriptors = std::make_unique<DescriptorSet>(ctx, storage, std::span<const SampledImage>{},
                                                       VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT);
         const MesoTechnique& t = options.technique;
@@ -141,8 +183,14 @@ struct MesoRenderer::Impl {
                            static_cast<std::uint32_t>(t.linear),
                            static_cast<std::uint32_t>(t.binary),
                            options.shadows ? 1u : 0u,
-                           static_cast<std::uint32_t>(options.shadowIterations)};
-        d.stages = {{VK_SHADER_STAGE_VERTEX_BIT, meso_vert_spv, false}, {VK_SHADER_STAGE_FRAGMENT_BIT, meso_frag_spv, true}};
+                           static_cast<std::uint32_t>(options.shadowIterations),
+                           options.base ? 1u : 0u};
+        d.stages = {{VK_SHADER_STAGE_VERTEX_BIT, options.base ? std::span<const std::uint32_t>(meso_base_vert_spv)
+                                                              : std::span<const std::uint32_t>(meso_vert_spv), false},
+                    {VK_SHADER_STAGE_FRAGMENT_BIT, meso_frag_spv, true}};
+        // A miss writes the far plane (1): LESS_OR_EQUAL lets it cover the clear, never a hit.
+        d.depthFormat = depth;
+        d.depthCompare = VK_COMPARE_OP_LESS_OR_EQUAL;
         d.colorFormats.assign(std::begin(kFormats), std::end(kFormats));
         d.layout = descriptors->pipelineLayout();
         pipeline = std::make_unique<GraphicsPipeline>(ctx, d);
@@ -167,7 +215,8 @@ struct MesoRenderer::Impl {
         fn.vkCmdSetScissor(cmd, 0, 1, &scissor);
         descriptors->bind(cmd);
         fn.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline->handle());
-        fn.vkCmdDraw(cmd, static_cast<std::uint32_t>(6 * options.quads * options.quads), 1, 0, 0);
+        const std::size_t vertices = options.base ? options.base->corners.size() : static_cast<std::size_t>(6 * options.quads * options.quads);
+        fn.vkCmdDraw(cmd, static_cast<std::uint32_t>(vertices), 1, 0, 0);
         targets->endRendering(cmd);
         timestamps->end(cmd);
         if (readBackNow) targets->copyToReadBack(cmd);

@@ -45,6 +45,9 @@ int renderMesoCommand(const RenderArgs& a, const nlohmann::json& j) {
     const MesoMaps maps = buildMesoSceneMaps(s);
     auto ctx = makeContext(a.device, a.validation);
     vulkan::MesoRenderOptions o;
+    o.base = buildMesoSceneBase(s);
+    o.camera.up = s.up;
+    o.checkerVoxels = s.checker;
     o.width = s.width;
     o.height = s.height;
     o.camera.eye = s.eye;
@@ -68,7 +71,8 @@ int renderMesoCommand(const RenderArgs& a, const nlohmann::json& j) {
     const char* methods[] = {"distance map", "DDM", "relief", "POM"};
     std::cout << "mesostructure scene '" << s.name << "' on " << ctx->deviceName() << "\n  " << methods[static_cast<int>(s.technique.method)]
               << (s.technique.method == MesoMethod::Ddm ? (s.technique.quadrics ? " + quadric, cones " + s.cones.name() : ", cones " + s.cones.name()) : "")
-              << (s.shadows ? ", self-shadowing" : "") << "; maps built: " << (maps.field.h.empty() ? "" : "heights")
+              << (s.shadows ? ", self-shadowing" : "")
+              << (o.base ? "; on '" + s.base->mesh + "' (" + std::to_string(o.base->triangleCount()) + " triangles)" : "") << "; maps built: " << (maps.field.h.empty() ? "" : "heights")
               << (maps.distance.d.empty() ? "" : ", distance map") << (maps.ddm.grid.empty() ? "" : ", DDM")
               << (maps.quadrics.q.empty() ? "" : ", quadrics") << "\n  " << im.width << " x " << im.height << ": GPU time "
               << fixed(im.gpuMs, 3) << " ms (median of " << im.frames << " frames), mean iterations "

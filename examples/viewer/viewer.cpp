@@ -73,10 +73,11 @@ Viewer::Viewer(const ViewerOptions& options) : options_(options) {
         if (meso_) {
             mesoScene_ = dispmap::parseMesoScene(j, options_.scene, std::filesystem::path(options_.scene).parent_path().string());
             mesoMaps_ = dispmap::buildMesoSceneMaps(mesoScene_);
+            mesoBase_ = dispmap::buildMesoSceneBase(mesoScene_);
             width = mesoScene_.width;
             height = mesoScene_.height;
-            orbit_ = Orbit::around(mesoScene_.eye, mesoScene_.target, {0, 0, 1});
-            orbit_.minPitch = 0.05; // the renderer needs the camera above the plane
+            orbit_ = Orbit::around(mesoScene_.eye, mesoScene_.target, mesoScene_.up);
+            if (!mesoBase_) orbit_.minPitch = 0.05; // the renderer needs the camera above the plane
         } else {
             scene_ = dispmap::parseSceneDocument(j, options_.scene, std::filesystem::path(options_.scene).parent_path().string());
         }
@@ -163,9 +164,9 @@ bool Viewer::press(char key) {
         return true;
     }
     if (key == 'r') {
-        orbit_ = meso_ ? Orbit::around(mesoScene_.eye, mesoScene_.target, {0, 0, 1})
+        orbit_ = meso_ ? Orbit::around(mesoScene_.eye, mesoScene_.target, mesoScene_.up)
                        : Orbit::around(scene_.camera.eye, scene_.camera.target, scene_.camera.up);
-        if (meso_) orbit_.minPitch = 0.05;
+        if (meso_ && !mesoBase_) orbit_.minPitch = 0.05;
         orbitMoved_ = false;
         mesoDirty_ = true;
         return true;

@@ -98,6 +98,7 @@ class Viewer {
     // Mesostructure scenes.
     dispmap::MesoSceneDesc mesoScene_;
     std::optional<dispmap::MesoMaps> mesoMaps_;
+    std::shared_ptr<const dispmap::FrameMesh> mesoBase_; ///< the scene's base surface (none: the plane)
     bool mesoDirty_ = true;
     VkBuffer staging_ = VK_NULL_HANDLE;
     VkDeviceMemory stagingMemory_ = VK_NULL_HANDLE;

@@ -16,6 +16,9 @@ void Viewer::renderMesoImage() {
     o.height = static_cast<int>(extent.height);
     o.camera.eye = orbitMoved_ ? orbit_.eye() : mesoScene_.eye;
     o.camera.target = mesoScene_.target;
+    o.camera.up = mesoScene_.up;
+    o.base = mesoBase_;
+    o.checkerVoxels = mesoScene_.checker;
     o.camera.fovYDeg = mesoScene_.fov;
     o.lightDirection = mesoScene_.light;
     o.technique = mesoScene_.technique;

@@ -10,7 +10,7 @@
 #define rvec3 vec3
 #define rvec4 vec4
 #define rmat3 mat3
-#line 12 "include/dispmap/kernels/meso_shade.h"
+#line 17 "include/dispmap/kernels/meso_shade.h"
 // Where the pixel's ray enters the slab: the base-surface point (world x, y on the plane)
 // in voxel units, on the top plane z = L.
 DM_TFUNC rvec3 dmMesoEntry(rvec3 worldPos, rvec3 voxelsPerUnit, int L) {
@@ -42,8 +42,49 @@ DM_TFUNC rvec3 dmMesoShadowOrigin(rvec3 p, rvec4 h, rvec2 f, real offset) {
     return p + n * (offset / sqrt(dmDot3(n, n)));
 }
 
-// Albedo of a checker of `period` voxels (1 and 0.55), so the parallax is visible.
+// --- Curved bases: the pixel's frame (pS, pT, n) ------------------------------------------
+// The coordinates (a, b, c) of the world vector w in the frame, w = a pS + b pT + c n
+// (Cramer's rule; a, b in texture units, c in world units). The caller passes a frame whose
+// pS, pT and n are independent (the base mesh's builder checks: surface/frame_mesh.h); a
+// mirrored chart (pS x pT against n) is fine.
+DM_TFUNC rvec3 dmFrameCoordinates(rvec3 w, rvec3 pS, rvec3 pT, rvec3 n) {
+    rvec3 tn = cross(pT, n);
+    rvec3 ns = cross(n, pS);
+    rvec3 st = cross(pS, pT);
+    real inv = real(1) / dmDot3(pS, tn);
+    return rvec3(dmDot3(w, tn) * inv, dmDot3(w, ns) * inv, dmDot3(w, st) * inv);
+}
+
+// The world point of voxel-space point p for the ray that entered at voxel-space point o,
+// where the base point is `base`: base + a pS + b pT + c n with (a, b, c) the voxel offset
+// p - o in texture units and world units along n (the inverse of dmFrameCoordinates and
+// dmTangentToVoxel's scaling; locally planar, as the march).
+DM_TFUNC rvec3 dmFramePoint(rvec3 base, rvec3 p, rvec3 o, rvec3 pS, rvec3 pT, rvec3 n, rvec3 voxelsPerUnit) {
+    rvec3 q = p - o;
+    return base + pS * (q.x / voxelsPerUnit.x) + pT * (q.y / voxelsPerUnit.y) + n * (q.z / voxelsPerUnit.z);
+}
+
+// The unit world normal of the height field at cell corners h, fraction f, on the frame: the
+// cross product of the surface's derivatives along s and t, pS + H_s n and pT + H_t n (H_s the
+// height's world slope per texture unit: voxel slope g.x times W / (L / depth)), turned to the
+// side of n (a mirrored chart flips the cross product).
+DM_TFUNC rvec3 dmFrameNormal(rvec4 h, rvec2 f, rvec3 pS, rvec3 pT, rvec3 n, rvec3 voxelsPerUnit) {
+    rvec2 g = dmMesoHeightGradient(h, f);
+    rvec3 ds = pS + n * (g.x * (voxelsPerUnit.x / voxelsPerUnit.z));
+    rvec3 dt = pT + n * (g.y * (voxelsPerUnit.y / voxelsPerUnit.z));
+    rvec3 m = cross(ds, dt);
+    if (dmDot3(m, n) < real(0)) {
+        m = -m;
+    }
+    return m * (real(1) / sqrt(dmDot3(m, m)));
+}
+
+// Albedo of a checker of `period` voxels (1 and 0.55), so the parallax is visible; a period
+// <= 0 is no checker (albedo 1).
 DM_TFUNC real dmMesoChecker(rvec2 p, real period) {
+    if (!(period > real(0))) {
+        return real(1);
+    }
     int a = int(floor(p.x / period)) + int(floor(p.y / period));
     return (a & 1) == 0 ? real(1) : real(0.55);
 }

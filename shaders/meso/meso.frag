@@ -1,9 +1,13 @@
 #version 450
 // The MesoRenderer's fragment shader: the pixel's view ray into voxel space (Donnelly's
-// normalisation, dmTangentToVoxel), the marcher the specialisation constants choose (only
-// that one survives specialisation), the shading with the height field's normal and, only
-// when asked for, a shadow ray through the DDM's shadow cones. Every formula is a kernel
-// (kernels/meso.h, kernels/meso_shade.h); march.glsl holds the loops.
+// normalisation, dmTangentToVoxel; on a base mesh first into the pixel's interpolated frame,
+// dmFrameCoordinates), the marcher the specialisation constants choose (only that one
+// survives specialisation), the shading with the height field's normal and, only when asked
+// for, a shadow ray through the DDM's shadow cones. On a base mesh the depth is the hit's
+// (dmFramePoint), so the detail occludes and is occluded where it is, and a ray that misses
+// (it leaves through the top, e.g. from a back face) writes the far plane: what lies behind
+// it shows through. Every formula is a kernel (kernels/meso.h, kernels/meso_shade.h);
+// march.glsl holds the loops.
 #extension GL_GOOGLE_include_directive : require
 #define DM_MESO_SET 0
 #define DM_MESO_BINDING 0
@@ -20,8 +24,13 @@ layout(constant_id = 5) const int kLinear = 32;
 layout(constant_id = 6) const int kBinary = 6;
 layout(constant_id = 7) const bool kShadows = false;
 layout(constant_id = 8) const int kShadowIterations = 64;
+layout(constant_id = 9) const int kBase = 0;            // 0 the plane z = 0, 1 a base mesh (base.vert)
 
 layout(location = 0) in vec3 worldPos;
+layout(location = 1) in vec2 tex;
+layout(location = 2) in vec3 framePS;
+layout(location = 3) in vec3 framePT;
+layout(location = 4) in vec3 frameN;
 layout(location = 0) out vec4 outColor;
 layout(location = 1) out vec4 outHit;    // voxel-space hit point, t (w = -1: the ray missed)
 layout(location = 2) out vec4 outOrigin; // the view ray in voxel space: o, 1
@@ -41,10 +50,23 @@ void main() {
     s.coneN = params.dims2.x;
     s.tol = params.tol.x;
     vec3 vpu = params.voxelsPerUnit.xyz;
-    vec3 o = dmMesoEntry(worldPos, vpu, s.layers);
-    vec3 d = dmTangentToVoxel(worldPos - params.eye.xyz, vpu);
+    vec3 n0 = frameN * (1.0 / sqrt(dmDot3(frameN, frameN)));
+    vec3 o;
+    vec3 d;
+    if (kBase == 0) {
+        o = dmMesoEntry(worldPos, vpu, s.layers);
+        d = dmTangentToVoxel(worldPos - params.eye.xyz, vpu);
+    } else {
+        o = dmMesoEntry(vec3(tex, 0.0), vpu, s.layers);
+        d = dmTangentToVoxel(dmFrameCoordinates(worldPos - params.eye.xyz, framePS, framePT, n0), vpu);
+    }
     DmMesoHit h;
-    if (kMethod == 0) {
+    if (kBase != 0 && !(d.z < 0.0)) {
+        // Seen from below the base (a back face): the ray leaves through the top at once.
+        h.hit = false;
+        h.t = 0.0;
+        h.iterations = 0;
+    } else if (kMethod == 0) {
         h = dmMarchDistanceMap(s, o, d, kIterations, kEps);
     } else if (kMethod == 1) {
         h = dmMarchDdm(s, o, d, kIterations, kQuadrics, kExitRule);
@@ -57,21 +79,35 @@ void main() {
         outColor = params.background;
         outHit = vec4(0.0, 0.0, 0.0, -1.0);
         outCounts = uvec4(uint(h.iterations), 0u, 0u, 0u);
+        gl_FragDepth = kBase == 0 ? gl_FragCoord.z : 1.0;
         return;
     }
     vec3 p = o + d * h.t;
     vec2 f;
     ivec2 c = dmHeightCell(vec2(p.x, p.y), f);
     vec4 cell = dmMesoCell(s, c.x, c.y);
-    vec3 n = dmMesoWorldNormal(cell, f, vpu);
+    vec3 n;
+    if (kBase == 0) {
+        n = dmMesoWorldNormal(cell, f, vpu);
+        gl_FragDepth = gl_FragCoord.z;
+    } else {
+        n = dmFrameNormal(cell, f, framePS, framePT, n0, vpu);
+        vec4 clip = params.viewProj * vec4(dmFramePoint(worldPos, p, o, framePS, framePT, n0, vpu), 1.0);
+        gl_FragDepth = clamp(clip.z / clip.w, 0.0, 1.0);
+    }
     float lit = 1.0;
     uint shadowIterations = 0u;
     if (kShadows) {
-        vec3 so = dmMesoShadowOrigin(p, cell, f, params.tol.y);
-        vec3 sd = dmTangentToVoxel(params.light.xyz, vpu);
-        DmMesoHit sh = dmMarchDdm(s, so, sd, kShadowIterations, true, 1);
-        lit = sh.hit ? 0.0 : 1.0;
-        shadowIterations = uint(sh.iterations);
+        vec3 sd = kBase == 0 ? dmTangentToVoxel(params.light.xyz, vpu)
+                             : dmTangentToVoxel(dmFrameCoordinates(params.light.xyz, framePS, framePT, n0), vpu);
+        if (sd.z > 0.0) {
+            vec3 so = dmMesoShadowOrigin(p, cell, f, params.tol.y);
+            DmMesoHit sh = dmMarchDdm(s, so, sd, kShadowIterations, true, 1);
+            lit = sh.hit ? 0.0 : 1.0;
+            shadowIterations = uint(sh.iterations);
+        } else {
+            lit = 0.0; // the base surface turns away from the light: its own shape shadows the point
+        }
     }
     float albedo = dmMesoChecker(vec2(p.x, p.y), params.voxelsPerUnit.w);
     float v = dmMesoShade(albedo, n, params.light.xyz, params.light.w, lit);

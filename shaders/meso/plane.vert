@@ -5,6 +5,11 @@
 #include "common.glsl"
 
 layout(location = 0) out vec3 worldPos;
+// The frame of base.vert: meso.frag reads it only on a base mesh (kBase), the plane's is world space.
+layout(location = 1) out vec2 tex;
+layout(location = 2) out vec3 framePS;
+layout(location = 3) out vec3 framePT;
+layout(location = 4) out vec3 frameN;
 
 void main() {
     int quads = int(params.plane.y);
@@ -15,5 +20,9 @@ void main() {
     float step = 2.0 * params.plane.x / float(quads);
     vec3 p = vec3(-params.plane.x + float(q % quads + cx) * step, -params.plane.x + float(q / quads + cy) * step, 0.0);
     worldPos = p;
+    tex = vec2(0.0);
+    framePS = vec3(1.0, 0.0, 0.0);
+    framePT = vec3(0.0, 1.0, 0.0);
+    frameN = vec3(0.0, 0.0, 1.0);
     gl_Position = params.viewProj * vec4(p, 1.0);
 }

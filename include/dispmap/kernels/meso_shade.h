@@ -1,9 +1,14 @@
 #pragma once
 // Kernels of the mesostructure renderer (backend_vulkan MesoRenderer, shaders/meso/): the
 // pixel ray's entry into voxel space, the normal of the bilinear height field at a hit, the
-// shadow ray's origin and the shading. Voxel space as in kernels/meso.h; the base surface is
-// the plane z = 0 with tangent +x, bitangent +y and normal +z, so tangent space is world
-// space and voxelsPerUnit = (W / tile size, H / tile size, L / depth) in world units.
+// shadow ray's origin and the shading. Voxel space as in kernels/meso.h. On the plane z = 0
+// (tangent +x, bitangent +y, normal +z) tangent space is world space and voxelsPerUnit =
+// (W / tile size, H / tile size, L / depth) in world units. On any other base (a curved
+// surface, Donnelly §8.3.1: locally planar) each pixel has a frame (dmFrameCoordinates): the
+// world vectors pS = dP/ds and pT = dP/dt along the mesostructure's texture coordinates (s, t),
+// one unit a tile, and the unit normal n; there voxelsPerUnit = (W, H, L / depth) (voxels per
+// texture unit in s and t, per world unit along n), and dmFramePoint / dmFrameNormal take the
+// hit and the height field's normal back to the world.
 #include "dispmap/kernels/sum.h"
 #include "dispmap/kernels/prelude.h"
 
@@ -40,8 +45,49 @@ DM_TFUNC rvec3 dmMesoShadowOrigin(rvec3 p, rvec4 h, rvec2 f, real offset) {
     return p + n * (offset / sqrt(dmDot3(n, n)));
 }
 
-// Albedo of a checker of `period` voxels (1 and 0.55), so the parallax is visible.
+// --- Curved bases: the pixel's frame (pS, pT, n) ------------------------------------------
+// The coordinates (a, b, c) of the world vector w in the frame, w = a pS + b pT + c n
+// (Cramer's rule; a, b in texture units, c in world units). The caller passes a frame whose
+// pS, pT and n are independent (the base mesh's builder checks: surface/frame_mesh.h); a
+// mirrored chart (pS x pT against n) is fine.
+DM_TFUNC rvec3 dmFrameCoordinates(rvec3 w, rvec3 pS, rvec3 pT, rvec3 n) {
+    rvec3 tn = cross(pT, n);
+    rvec3 ns = cross(n, pS);
+    rvec3 st = cross(pS, pT);
+    real inv = real(1) / dmDot3(pS, tn);
+    return rvec3(dmDot3(w, tn) * inv, dmDot3(w, ns) * inv, dmDot3(w, st) * inv);
+}
+
+// The world point of voxel-space point p for the ray that entered at voxel-space point o,
+// where the base point is `base`: base + a pS + b pT + c n with (a, b, c) the voxel offset
+// p - o in texture units and world units along n (the inverse of dmFrameCoordinates and
+// dmTangentToVoxel's scaling; locally planar, as the march).
+DM_TFUNC rvec3 dmFramePoint(rvec3 base, rvec3 p, rvec3 o, rvec3 pS, rvec3 pT, rvec3 n, rvec3 voxelsPerUnit) {
+    rvec3 q = p - o;
+    return base + pS * (q.x / voxelsPerUnit.x) + pT * (q.y / voxelsPerUnit.y) + n * (q.z / voxelsPerUnit.z);
+}
+
+// The unit world normal of the height field at cell corners h, fraction f, on the frame: the
+// cross product of the surface's derivatives along s and t, pS + H_s n and pT + H_t n (H_s the
+// height's world slope per texture unit: voxel slope g.x times W / (L / depth)), turned to the
+// side of n (a mirrored chart flips the cross product).
+DM_TFUNC rvec3 dmFrameNormal(rvec4 h, rvec2 f, rvec3 pS, rvec3 pT, rvec3 n, rvec3 voxelsPerUnit) {
+    rvec2 g = dmMesoHeightGradient(h, f);
+    rvec3 ds = pS + n * (g.x * (voxelsPerUnit.x / voxelsPerUnit.z));
+    rvec3 dt = pT + n * (g.y * (voxelsPerUnit.y / voxelsPerUnit.z));
+    rvec3 m = cross(ds, dt);
+    if (dmDot3(m, n) < real(0)) {
+        m = -m;
+    }
+    return m * (real(1) / sqrt(dmDot3(m, m)));
+}
+
+// Albedo of a checker of `period` voxels (1 and 0.55), so the parallax is visible; a period
+// <= 0 is no checker (albedo 1).
 DM_TFUNC real dmMesoChecker(rvec2 p, real period) {
+    if (!(period > real(0))) {
+        return real(1);
+    }
     int a = int(floor(p.x / period)) + int(floor(p.y / period));
     return (a & 1) == 0 ? real(1) : real(0.55);
 }

@@ -1,13 +1,26 @@
 #pragma once
 // Mesostructure scene files (JSON), rendered by `dispmap render` with the fragment-shader
-// marcher (backend_vulkan MesoRenderer): a plane tiled with a height-field mesostructure.
+// marcher (backend_vulkan MesoRenderer): a plane or any surface tiled with a height-field
+// mesostructure.
 //
 //   {"mesostructure": {"height": "bricks.png", "size": 64, "layers": 16, "depth": 14,
 //                      "cones": "4x1", "block": 4},          (or "function": "grating")
-//    "camera": {"eye": [0.3, -1.2, 0.7], "target": [0, 0, 0], "fov": 45},
-//    "light": [0.4, 0.3, 0.8], "resolution": [320, 240], "tile": 0.5, "slab": 0.06,
+//    "camera": {"eye": [0.3, -1.2, 0.7], "target": [0, 0, 0], "up": [0, 0, 1], "fov": 45},
+//    "light": [0.4, 0.3, 0.8], "resolution": [320, 240], "tile": 0.5, "slab": 0.06, "checker": 8,
 //    "effects": {"technique": "ddm", "quadrics": true, "iterations": 128, "exitRule": 1,
-//                "eps": -1, "linear": 32, "binary": 6, "shadows": false}}
+//                "eps": -1, "linear": 32, "binary": 6, "shadows": false},
+//    "base": {"mesh": "spot.obj", "isolation": 6, "displacement": {...},
+//             "placement": "uv", "repeat": [8, 8], "uv": "mesh", "tessellation": 8}}
+//
+// Without "base" the mesostructure tiles the plane z = 0 every `tile` world units (the camera
+// above it). With "base" it lies on that surface: "mesh", "isolation" and "displacement" as in
+// a surface scene (scene/scene.h; no displacement: the Catmull-Clark limit surface itself,
+// else the displaced surface, so coarse detail is tessellated and fine detail marched in one
+// draw), tessellated uniformly with `tessellation` segments a face edge (1..64), placed by the
+// mesh's UVs ("uv", interpolated by the rule "uv": surface/uv_map.h) or per ptex face
+// ("face"), `repeat` tiles per UV unit or per face (a number or [s, t]); `slab` is the depth
+// in world units below the surface (surface/frame_mesh.h, FrameMesh). "checker": the albedo's
+// checker period in voxels (0: none).
 //
 // Effects, and only those: the maps the technique reads are the only maps built (a relief
 // scene builds no distance map and no DDM; shadow cones only with "shadows"), and the
@@ -24,6 +37,9 @@
 #include "dispmap/io/png.h"
 #include "dispmap/meso/march.h"
 #include "dispmap/scene/scene.h"
+#include "dispmap/scene/surface.h"
+#include "dispmap/surface/frame_mesh.h"
+#include "dispmap/surface/tessellator.h"
 
 namespace dispmap {
 
@@ -37,9 +53,17 @@ struct MesoSceneDesc {
     int block = 4;
     glm::dvec3 eye{0.35, -1.3, 0.75}, target{0.0, 0.0, 0.0}, light{0.4, 0.3, 0.8};
     double fov = 45, tile = 0.5, slab = 0.06;
+    double checker = 8; ///< the albedo's checker period, voxels (0: none)
     int width = 320, height = 240;
+    glm::dvec3 up{0.0, 0.0, 1.0};
     MesoTechnique technique;
     bool shadows = false;
+    /// The base surface ("base"): a surface scene's mesh, isolation and displacement (no
+    /// camera, lights or effects of its own); none: the plane.
+    std::optional<Scene> base;
+    FrameMeshOptions placement;
+    UvInterpolation uvRule = UvInterpolation::Mesh;
+    double tessellation = 8; ///< uniform factor, segments a base-face edge
 };
 
 /// Largest step counts of a mesostructure scene's marchers ("effects"): the iteration cap of
@@ -204,6 +228,47 @@ inline MesoMapOptions mesoSceneMapOptions(const MesoSceneDesc& s) {
 }
 } // namespace detail
 
+namespace detail {
+// The "base" object of a mesostructure scene (see the header): its surface keys go to the
+// surface scene parser (no displacement given: "zero"), the rest are the frame mesh's.
+inline void parseMesoBase(const nlohmann::json& b, const std::string& name, const std::string& baseDir, MesoSceneDesc& s) {
+    const auto fail = [&](const std::string& why) { return ArgumentError(name + ": " + why); };
+    mesoKeys(b, name, "base", {"mesh", "isolation", "displacement", "placement", "repeat", "uv", "tessellation"});
+    if (!b.contains("mesh")) throw fail("'base.mesh' is missing (an OBJ path, \"builtin:box\" or \"builtin:torus\")");
+    nlohmann::json doc = nlohmann::json::object();
+    for (const char* key : {"mesh", "isolation", "displacement"})
+        if (b.contains(key)) doc[key] = b[key];
+    if (!doc.contains("displacement")) doc["displacement"] = {{"function", "zero"}};
+    s.base = parseSceneDocument(doc, name + " (base)", baseDir);
+    if (b.contains("placement")) {
+        const std::string p = b["placement"].is_string() ? b["placement"].get<std::string>() : "";
+        if (p == "uv") s.placement.placement = FramePlacement::Uv;
+        else if (p == "face") s.placement.placement = FramePlacement::Face;
+        else throw fail("unknown 'base.placement' '" + mesoExcerpt(p) + "' (uv, face)");
+    }
+    if (b.contains("repeat")) {
+        const nlohmann::json& r = b["repeat"];
+        if (r.is_number()) {
+            s.placement.repeat = glm::dvec2(r.get<double>());
+        } else if (r.is_array() && r.size() == 2 && r[0].is_number() && r[1].is_number()) {
+            s.placement.repeat = {r[0].get<double>(), r[1].get<double>()};
+        } else {
+            throw fail("'base.repeat' must be a number or [s, t]");
+        }
+        for (int i = 0; i < 2; ++i)
+            if (!(s.placement.repeat[i] > 0 && s.placement.repeat[i] <= 1e4)) throw fail("'base.repeat' must be in (0, 1e4] tiles");
+    }
+    if (b.contains("uv")) {
+        const std::string u = b["uv"].is_string() ? b["uv"].get<std::string>() : "";
+        const std::optional<UvInterpolation> rule = parseUvInterpolation(u);
+        if (!rule) throw fail("unknown 'base.uv' '" + mesoExcerpt(u) + "' (mesh, linear, smooth, corners, corners+1, corners+2, boundaries)");
+        s.uvRule = *rule;
+    }
+    s.tessellation = mesoNumber(b, "tessellation", s.tessellation, name, "base.");
+    if (!(s.tessellation >= 1 && s.tessellation <= 64)) throw fail("'base.tessellation' must be in 1..64 segments a face edge");
+}
+} // namespace detail
+
 /// Whether a scene file's JSON is a mesostructure scene (it has the "mesostructure" key).
 inline bool isMesoScene(const nlohmann::json& j) { return j.is_object() && j.contains("mesostructure"); }
 
@@ -219,7 +284,7 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
     MesoSceneDesc s;
     s.name = name;
     const auto fail = [&](const std::string& why) { return ArgumentError(name + ": " + why); };
-    mesoKeys(j, name, "", {"mesostructure", "camera", "light", "resolution", "tile", "slab", "effects"});
+    mesoKeys(j, name, "", {"mesostructure", "camera", "light", "resolution", "tile", "slab", "checker", "effects", "base"});
     const nlohmann::json& m = j["mesostructure"];
     mesoKeys(m, name, "mesostructure", {"height", "function", "size", "layers", "depth", "cones", "block"});
     if (m.contains("height")) {
@@ -252,9 +317,10 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
     }
     if (j.contains("camera")) {
         const nlohmann::json& c = j["camera"];
-        mesoKeys(c, name, "camera", {"eye", "target", "fov"});
+        mesoKeys(c, name, "camera", {"eye", "target", "up", "fov"});
         s.eye = mesoVec3(c, "eye", s.eye, name, "camera.");
         s.target = mesoVec3(c, "target", s.target, name, "camera.");
+        s.up = mesoVec3(c, "up", s.up, name, "camera.");
         s.fov = mesoNumber(c, "fov", s.fov, name, "camera.");
     }
     s.light = mesoVec3(j, "light", s.light, name, "");
@@ -277,6 +343,8 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
     s.tile = mesoNumber(j, "tile", s.tile, name, "");
     s.slab = mesoNumber(j, "slab", s.slab, name, "");
     if (!(s.tile > 0) || !(s.slab > 0)) throw fail("'tile' and 'slab' must be > 0");
+    s.checker = mesoNumber(j, "checker", s.checker, name, "");
+    if (!(s.checker >= 0 && s.checker <= 1e6)) throw fail("'checker' must be in [0, 1e6] voxels (0: no checker)");
     if (j.contains("effects")) {
         const nlohmann::json& e = j["effects"];
         mesoKeys(e, name, "effects", {"technique", "quadrics", "iterations", "exitRule", "eps", "linear", "binary", "shadows"});
@@ -319,10 +387,13 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
     // The renderer's rules, here so that no map is built for a scene it would refuse.
     if (!(s.fov >= kMinFovDeg && s.fov < 180))
         throw fail("'camera.fov' " + std::to_string(s.fov) + " is not in [" + detail::drawNumber(kMinFovDeg) + ", 180) degrees");
-    if (!(s.eye.z > 0)) throw fail("'camera.eye' must be above the plane z = 0 (eye.z > 0)");
+    if (j.contains("base")) parseMesoBase(j["base"], name, baseDir, s);
+    if (!s.base && !(s.eye.z > 0)) throw fail("'camera.eye' must be above the plane z = 0 (eye.z > 0)");
     if (!(glm::length(s.target - s.eye) > 0)) throw fail("'camera.eye' and 'camera.target' are the same point");
+    if (!(glm::length(glm::cross(s.target - s.eye, s.up)) > 1e-9 * glm::length(s.target - s.eye) * glm::length(s.up)))
+        throw fail("'camera.up' is zero or parallel to the view direction");
     if (!(glm::length(s.light) > 0)) throw fail("'light' is the zero vector");
-    if (s.shadows && !(s.light.z > 0)) throw fail("'light' must be above the horizon (z > 0) with 'effects.shadows'");
+    if (!s.base && s.shadows && !(s.light.z > 0)) throw fail("'light' must be above the horizon (z > 0) with 'effects.shadows'");
     if (s.size > 0)
         if (const std::string why = mesoBuildProblem(s.size, s.size, s.layers, mesoSceneMapOptions(s)); !why.empty())
             throw fail("'mesostructure': " + why);
@@ -352,6 +423,29 @@ inline MesoMaps buildMesoSceneMaps(const MesoSceneDesc& s) {
         field = mesoFunctionField(s.function, s.size, s.layers);
     }
     return buildMesoMaps(field, o);
+}
+
+/// The scene's base surface as the renderer draws it (none without "base"): the mesh and its
+/// displacement built as a surface scene's (SceneSurface), tessellated uniformly, with the
+/// frame of every triangle corner (buildFrameMesh). Throws what those throw: FileError /
+/// MeshError for the mesh, ArgumentError naming the scene for UV placement on a mesh without
+/// texture coordinates or a singular frame.
+inline std::shared_ptr<const FrameMesh> buildMesoSceneBase(const MesoSceneDesc& s) {
+    if (!s.base) return nullptr;
+    const SceneSurface surface(*s.base);
+    const TriangleMesh tess = Tessellator(surface.surface, uniformTessFactors(surface.base, s.tessellation)).tessellate();
+    try {
+        std::optional<UvMap> uv;
+        if (s.placement.placement == FramePlacement::Uv) {
+            if (!surface.mesh.hasUVs())
+                throw ArgumentError("'base.placement' \"uv\" needs texture coordinates and the mesh '" + s.base->mesh +
+                                    "' has none (\"placement\": \"face\" tiles every face instead)");
+            uv.emplace(surface.mesh, s.uvRule);
+        }
+        return std::make_shared<const FrameMesh>(buildFrameMesh(surface.surface, tess, uv ? &*uv : nullptr, s.placement));
+    } catch (const ArgumentError& e) {
+        throw ArgumentError(s.name + ": " + e.what());
+    }
 }
 
 } // namespace dispmap

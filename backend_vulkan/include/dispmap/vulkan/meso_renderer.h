@@ -1,13 +1,18 @@
 #pragma once
 // dispmap::vulkan::MesoRenderer: per-pixel mesostructure ray marching in a fragment shader
-// (shaders/meso/), headless. The base mesh is the plane z = 0 (quads x quads quads, normal
-// +z, tangent +x, bitangent +y, so tangent space is world space); the mesostructure tiles it
-// every `tileSize` world units and its slab of `depth` world units lies below the plane. Each
-// pixel's view ray enters voxel space by Donnelly's normalisation (dmTangentToVoxel) and is
-// marched by the chosen MesoTechnique; the technique and its knobs are specialisation
-// constants, so only the chosen marcher is compiled into the pipeline. Shading: Lambert with
-// the normal of the bilinear height field at the hit and a checker albedo; a shadow ray
-// through the DDM's shadow cones only when `shadows` is on.
+// (shaders/meso/), headless. The base is the plane z = 0 (quads x quads quads, normal +z,
+// tangent +x, bitangent +y, so tangent space is world space; the mesostructure tiles it every
+// `tileSize` world units), or any surface given as a FrameMesh (`base`: the Catmull-Clark limit
+// surface or a displaced surface, tessellated, with the mesostructure's texture coordinates
+// and frame at every corner; surface/frame_mesh.h). The slab of `depth` world units lies
+// below the base. Each pixel's view ray enters voxel space by Donnelly's normalisation
+// (dmTangentToVoxel; on a base mesh in the pixel's interpolated frame, locally planar as
+// Donnelly §8.3.1) and is marched by the chosen MesoTechnique; the technique and its knobs
+// are specialisation constants, so only the chosen marcher is compiled into the pipeline. On
+// a base mesh the pass has a depth buffer and writes the hit's depth; rays that miss show
+// what lies behind. Shading: Lambert with the normal of the bilinear height field at the hit
+// and a checker albedo; a shadow ray through the DDM's shadow cones only when `shadows` is on
+// (on a base mesh, a point whose base turns away from the light is in shadow).
 //
 // The marchers are those of include/dispmap/meso/march.h, bit for bit on lavapipe: the
 // per-pixel rays come back (rayOrigin, rayDir), and marchMeso<float> on them gives the same
@@ -19,6 +24,7 @@
 #include <glm/glm.hpp>
 
 #include "dispmap/meso/march.h"
+#include "dispmap/surface/frame_mesh.h"
 #include "dispmap/vulkan/context.h"
 
 namespace dispmap::vulkan {
@@ -42,9 +48,12 @@ struct MesoRenderOptions {
     double depth = 0.08;       ///< world units of the slab (z)
     double planeHalfSize = 1.0; ///< the plane spans [-h, h]^2
     int quads = 4;             ///< quads per side of the plane
+    /// The base mesh instead of the plane (tileSize, planeHalfSize and quads then unused: its
+    /// texture coordinates place the tiles). At most kMaxFrameCorners corners.
+    std::shared_ptr<const FrameMesh> base;
     double ambient = 0.2;
     glm::dvec3 background{0.12, 0.13, 0.16};
-    double checkerVoxels = 8;  ///< checker period of the albedo, voxels
+    double checkerVoxels = 8;  ///< checker period of the albedo, voxels (0: no checker)
     int frames = 3;            ///< timed frames (the GPU time is their median)
     int warmup = 1;            ///< untimed first frames (lavapipe compiles shaders at first use)
 };
@@ -54,16 +63,21 @@ struct MesoImage {
     std::vector<std::uint8_t> rgba;          ///< 8-bit colour, row 0 at the top
     std::vector<std::uint32_t> iterations;   ///< view-ray iterations per pixel (0: background)
     std::vector<std::uint32_t> shadowIterations;
-    std::vector<std::uint8_t> covered;       ///< 1 where the plane covers the pixel
+    std::vector<std::uint8_t> covered;       ///< 1 where the base covers the pixel (a base mesh: where a ray was marched and no hit lies in front)
     std::vector<std::uint8_t> hit;           ///< 1 where the view ray hit (0: missed, or background)
-    std::vector<std::uint8_t> shadowed;      ///< 1 where the shadow ray hit the mesostructure
+    std::vector<std::uint8_t> shadowed;      ///< 1 where the shadow ray hit the mesostructure (or the base turns away from the light)
     std::vector<glm::vec4> hitPoint;         ///< voxel-space hit point and t
     std::vector<glm::vec3> rayOrigin, rayDir; ///< the pixel's view ray in voxel space (where covered)
     double gpuMs = 0;                        ///< median GPU time of the timed frames (timestamps)
     int frames = 0;
 };
 
-/// The voxels per world unit of the options' mapping for `maps`: (W / tileSize, H / tileSize, L / depth).
+/// Largest base mesh (corners, three a triangle): 2^24, 256 MiB on the GPU (64 bytes a corner).
+inline constexpr std::size_t kMaxFrameCorners = std::size_t{1} << 24;
+
+/// The voxels per unit of the options' mapping for `maps`: on the plane (W / tileSize,
+/// H / tileSize, L / depth) per world unit; on a base mesh (W, H, L / depth), voxels per
+/// texture unit in s and t and per world unit along the normal.
 glm::dvec3 mesoVoxelsPerUnit(const MesoMaps& maps, const MesoRenderOptions& options);
 
 class MesoRenderer {
@@ -72,7 +86,8 @@ class MesoRenderer {
     /// to context (not to maps). ArgumentError for an image size out of [1, 4096], frames < 1,
     /// warm-up < 0, a bad technique (iterations or linear steps < 1), a camera at or below the
     /// plane, non-positive tile size / depth / plane, shadows without shadow cones or with a
-    /// light at or below the horizon.
+    /// light at or below the horizon (the plane's rules); an empty or too large base mesh, or
+    /// one with values that are not finite.
     MesoRenderer(Context& context, const MesoMaps& maps, const MesoRenderOptions& options);
     ~MesoRenderer();
     MesoRenderer(const MesoRenderer&) = delete;

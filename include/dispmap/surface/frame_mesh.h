@@ -1,0 +1,141 @@
+#pragma once
+// FrameMesh: a tessellated surface with, at every triangle corner, the frame that per-pixel
+// mesostructure marches in (kernels/meso_shade.h, dmFrameCoordinates): the position, the
+// texture coordinate (s, t) of the mesostructure (one unit a tile), the world derivatives
+// pS = dP/ds and pT = dP/dt, and the unit normal n. The mesostructure renderer
+// (backend_vulkan MesoRenderer) draws it as the base of its marcher; the rasteriser
+// interpolates the frame across each triangle.
+//
+// The surface is a DisplacedSurface (the Catmull-Clark limit surface with its analytic
+// displacement; zero tiles give the limit surface itself), tessellated by the Tessellator. The
+// positions are the tessellation's (shared between triangles: watertight); the frame of a
+// corner is evaluated in the ptex face of its own triangle (TriangleMesh::triangleUVs), so
+// corners on a UV seam or a face edge each carry their own face's chart. Placement:
+//  * Uv: (s, t) = the mesh's UV (UvMap, with its interpolation rule) times `repeat`;
+//  * Face: (s, t) = the ptex face's (u, v) times `repeat` (every face its own tiles; no UVs
+//    needed, seams at face edges where neighbouring faces' parameters disagree).
+// With f_u, f_v the surface's derivatives and M = d(s, t)/d(u, v) the chart's, the frame is
+// [pS pT] = [f_u f_v] M^-1. Where M or the frame is singular at a corner (a UV chart
+// collapsing to a point, a pole), the corner's frame is taken a step (kFrameNudge) towards
+// its face's centre; a frame that stays singular is an ArgumentError naming the face.
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "dispmap/core/error.h"
+#include "dispmap/core/parallel.h"
+#include "dispmap/core/triangle_mesh.h"
+#include "dispmap/surface/displaced_surface.h"
+#include "dispmap/surface/uv_map.h"
+
+namespace dispmap {
+
+struct FrameVertex {
+    glm::dvec3 position{0.0};
+    glm::dvec2 tex{0.0};  ///< (s, t), texture units (one unit: one tile of the mesostructure)
+    glm::dvec3 pS{0.0};   ///< dP/ds, world units per texture unit
+    glm::dvec3 pT{0.0};   ///< dP/dt
+    glm::dvec3 normal{0.0}; ///< unit
+};
+
+/// Three corners a triangle, counter-clockwise around the surface's normal.
+struct FrameMesh {
+    std::vector<FrameVertex> corners;
+    int triangleCount() const { return static_cast<int>(corners.size() / 3); }
+};
+
+enum class FramePlacement { Uv, Face };
+
+struct FrameMeshOptions {
+    FramePlacement placement = FramePlacement::Uv;
+    glm::dvec2 repeat{1.0, 1.0}; ///< tiles per UV unit (Uv) or per ptex face (Face); finite, > 0, <= 1e4
+    /// The surface's derivatives and normal: Accurate (the Weingarten term included: pS, pT
+    /// are the displaced surface's true derivatives) or Approximate (without it, §5.2: the
+    /// frame of the approximate normals). Equal on a surface without displacement.
+    NormalMode normals = NormalMode::Accurate;
+};
+
+/// How far (in the face's (u, v)) a corner with a singular frame is moved towards its face's
+/// centre before its frame is evaluated again.
+inline constexpr double kFrameNudge = 1e-3;
+
+/// Whether a frame's vectors are independent enough to solve in (dmFrameCoordinates): the
+/// triple product against the product of the lengths, as a sine (1 orthogonal, 0 dependent).
+inline double frameIndependence(const glm::dvec3& pS, const glm::dvec3& pT, const glm::dvec3& n) {
+    const double scale = glm::length(pS) * glm::length(pT) * glm::length(n);
+    const double triple = glm::dot(glm::cross(pS, pT), n);
+    return scale > 0 && std::isfinite(scale) ? std::abs(triple) / scale : 0.0;
+}
+
+/// Smallest accepted frameIndependence: 1e-6, a chart sheared to within a thousandth of a
+/// degree of flat; below it the solve amplifies float rounding of the view ray by 1e6.
+inline constexpr double kMinFrameIndependence = 1e-6;
+
+namespace detail {
+// The frame at face (u, v) = q and the texture coordinate at p (q is p, or p nudged towards the
+// face's centre where the frame at p is singular). false where the frame at q is singular.
+inline bool frameAt(const DisplacedSurface& surface, const UvMap* uv, const FrameMeshOptions& o, int face, glm::dvec2 p, glm::dvec2 q,
+                    FrameVertex& out) {
+    const SurfaceSample<double> s = surface.evaluate(face, q.x, q.y, o.normals);
+    glm::dvec2 ds, dt; // d(s, t)/du, d(s, t)/dv
+    if (uv) {
+        const UvSample w = uv->evaluate(face, q.x, q.y);
+        out.tex = uv->evaluate(face, p.x, p.y).uv * o.repeat;
+        ds = w.du * o.repeat;
+        dt = w.dv * o.repeat;
+    } else {
+        out.tex = p * o.repeat;
+        ds = {o.repeat.x, 0.0};
+        dt = {0.0, o.repeat.y};
+    }
+    // M = [[s_u, s_v], [t_u, t_v]] (columns ds, dt); [pS pT] = [f_u f_v] M^-1.
+    const double det = ds.x * dt.y - dt.x * ds.y;
+    if (!(std::abs(det) > kMinFrameIndependence * glm::length(ds) * glm::length(dt))) return false;
+    out.pS = (s.du * dt.y - s.dv * ds.y) / det;
+    out.pT = (s.dv * ds.x - s.du * dt.x) / det;
+    out.normal = s.normal;
+    return frameIndependence(out.pS, out.pT, out.normal) >= kMinFrameIndependence;
+}
+} // namespace detail
+
+/// The frame mesh of `tess` (the Tessellator's mesh of `surface`), placed by the mesh's UVs
+/// (`uv`, required for FramePlacement::Uv; ignored for Face). Throws ArgumentError for options
+/// out of range, Uv placement without a UvMap, a UvMap of another mesh, and a corner whose
+/// frame stays singular (see the header).
+inline FrameMesh buildFrameMesh(const DisplacedSurface& surface, const TriangleMesh& tess, const UvMap* uv, const FrameMeshOptions& o) {
+    for (int i = 0; i < 2; ++i)
+        if (!(o.repeat[i] > 0 && o.repeat[i] <= 1e4))
+            throw ArgumentError("frame mesh: repeat " + std::to_string(o.repeat[i]) + " is not in (0, 1e4] tiles");
+    const UvMap* map = o.placement == FramePlacement::Uv ? uv : nullptr;
+    if (o.placement == FramePlacement::Uv && !map)
+        throw ArgumentError("frame mesh: UV placement needs the mesh's texture coordinates (a mesh without UVs: use face placement)");
+    if (map && map->ptexFaceCount() != surface.base().faceCount())
+        throw ArgumentError("frame mesh: the UV map has " + std::to_string(map->ptexFaceCount()) + " ptex faces, the surface " +
+                            std::to_string(surface.base().faceCount()));
+    FrameMesh out;
+    out.corners.resize(3 * tess.triangles.size());
+    std::vector<char> singular(3 * tess.triangles.size(), 0);
+    Parallel().each(tess.triangles.size(), 256, [&](std::size_t t) {
+        const int face = tess.triangleFaces[t];
+        for (std::size_t c = 0; c < 3; ++c) {
+            const glm::dvec2 p = tess.triangleUVs[t][c];
+            FrameVertex& v = out.corners[3 * t + c];
+            v.position = tess.positions[static_cast<std::size_t>(tess.triangles[t][static_cast<int>(c)])];
+            if (!detail::frameAt(surface, map, o, face, p, p, v) &&
+                !detail::frameAt(surface, map, o, face, p, p + (glm::dvec2(0.5) - p) * (2.0 * kFrameNudge), v))
+                singular[3 * t + c] = 1;
+        }
+    });
+    for (std::size_t i = 0; i < singular.size(); ++i)
+        if (singular[i]) {
+            const glm::dvec2 p = tess.triangleUVs[i / 3][i % 3];
+            throw ArgumentError("frame mesh: the frame at ptex face " + std::to_string(tess.triangleFaces[i / 3]) + " (u, v) = (" +
+                                std::to_string(p.x) + ", " + std::to_string(p.y) + ") is singular (" +
+                                (map ? "a degenerate UV chart there" : "the surface's derivatives are dependent") + ")");
+        }
+    return out;
+}
+
+} // namespace dispmap

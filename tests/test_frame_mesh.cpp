@@ -1,0 +1,354 @@
+// Mesostructure on curved bases, on the CPU: the frame kernels of kernels/meso_shade.h
+// (dmFrameCoordinates, dmFramePoint, dmFrameNormal) against double solves and finite
+// differences, FrameMesh (surface/frame_mesh.h) against its surface's derivatives on real
+// cages, hard shapes and bad inputs, and the "base" object of mesostructure scenes.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <random>
+#include <string>
+
+#include "dispmap/kernels/meso.h"
+#include "dispmap/kernels/meso_shade.h"
+#include "dispmap/scene/meso.h"
+#include "dispmap/surface/frame_mesh.h"
+#include "dispmap/surface/tessellator.h"
+#include "test_support.h"
+
+namespace frame_mesh_test {
+namespace {
+using namespace dispmap;
+using Catch::Contains;
+
+// A surface of a control mesh with zero displacement (the limit surface) or a gentle wave,
+// tessellated uniformly.
+struct Built {
+    ControlMesh mesh;
+    BaseSurface base;
+    TileSet tiles;
+    DisplacedSurface surface;
+    TriangleMesh tess;
+    Built(ControlMesh m, double factor, double wave = 0.0)
+        : mesh(std::move(m)), base(mesh), tiles(buildTiles(mesh, uniformTileSizes(mesh, 3), FunctionSource([wave](int, double u, double v) {
+                                                  return wave * std::sin(6.0 * u) * std::cos(5.0 * v);
+                                              }))),
+          surface(base, tiles), tess(Tessellator(surface, uniformTessFactors(base, factor)).tessellate()) {}
+};
+
+glm::dvec3 randomVec(std::mt19937& g, double scale) {
+    std::uniform_real_distribution<double> u(-scale, scale);
+    return {u(g), u(g), u(g)};
+}
+
+// A random frame: tangents of lengths 0.05 .. 5 at least ~6 degrees out of each other's and the
+// normal's plane, mirrored half of the time.
+void randomFrame(std::mt19937& g, glm::dvec3& pS, glm::dvec3& pT, glm::dvec3& n) {
+    do {
+        pS = randomVec(g, 1.0) * std::exp(std::uniform_real_distribution<double>(-3.0, 1.6)(g));
+        pT = randomVec(g, 1.0) * std::exp(std::uniform_real_distribution<double>(-3.0, 1.6)(g));
+        n = glm::normalize(glm::cross(pS, pT) + randomVec(g, 0.5) * glm::length(glm::cross(pS, pT)));
+        if (g() & 1u) n = -n;
+    } while (frameIndependence(pS, pT, n) < 0.1);
+}
+
+TEST_CASE("dmFrameCoordinates solves w = a pS + b pT + c n", "[meso][frame]") {
+    std::mt19937 g(7);
+    double worstD = 0, worstF = 0;
+    for (int i = 0; i < 2000; ++i) {
+        glm::dvec3 pS, pT, n;
+        randomFrame(g, pS, pT, n);
+        const glm::dvec3 w = randomVec(g, 3.0);
+        const glm::dvec3 c = kern::dmFrameCoordinates(w, pS, pT, n);
+        const double scale = glm::length(w);
+        worstD = std::max(worstD, glm::length(c.x * pS + c.y * pT + c.z * n - w) / scale);
+        // Float against the double solve: each coordinate's error measured in its own vector's
+        // length, relative to |w|.
+        const glm::vec3 cf = kern::dmFrameCoordinates(glm::vec3(w), glm::vec3(pS), glm::vec3(pT), glm::vec3(n));
+        const glm::dvec3 e = glm::dvec3(cf) - c;
+        worstF = std::max(worstF, glm::length(e.x * pS + e.y * pT + e.z * n) / scale);
+    }
+    INFO("worst residual: double " << worstD << ", float " << worstF);
+    // Cramer's rule on frames at least 0.1 from singular: double within 1e-13 (a few hundred
+    // ULP, condition <= 10 over ~10 operations), float within 1e-5 (same count of float ULP).
+    CHECK(worstD < 1e-13);
+    CHECK(worstF < 1e-5);
+
+    // On the plane's frame (pS = tile x, pT = tile y, n = z) the ray is the plane's own
+    // (dmTangentToVoxel with W / tile): the two routes agree to float rounding.
+    const double tile = 0.5;
+    const glm::vec3 vpuFrame(64.0f, 64.0f, 200.0f), vpuPlane(128.0f, 128.0f, 200.0f);
+    for (int i = 0; i < 200; ++i) {
+        glm::dvec3 w = randomVec(g, 2.0);
+        w.z = -std::abs(w.z) - 0.01;
+        const glm::vec3 a = kern::dmTangentToVoxel(
+            kern::dmFrameCoordinates(glm::vec3(w), glm::vec3(float(tile), 0.0f, 0.0f), glm::vec3(0.0f, float(tile), 0.0f), glm::vec3(0.0f, 0.0f, 1.0f)),
+            vpuFrame);
+        const glm::vec3 b = kern::dmTangentToVoxel(glm::vec3(w), vpuPlane);
+        CHECK(glm::length(a - b) < 1e-6f); // unit vectors: a few float ULP
+    }
+}
+
+TEST_CASE("dmFramePoint takes a voxel-space offset back to the world", "[meso][frame]") {
+    std::mt19937 g(11);
+    const glm::dvec3 vpu(64.0, 32.0, 160.0);
+    for (int i = 0; i < 500; ++i) {
+        glm::dvec3 pS, pT, n;
+        randomFrame(g, pS, pT, n);
+        const glm::dvec3 base = randomVec(g, 5.0), o = randomVec(g, 100.0), q = randomVec(g, 20.0);
+        const glm::dvec3 x = kern::dmFramePoint(base, o + q, o, pS, pT, n, vpu);
+        // Its frame coordinates, scaled to voxels, are the offset again.
+        const glm::dvec3 c = kern::dmFrameCoordinates(x - base, pS, pT, n) * vpu;
+        CHECK(glm::length(c - q) < 1e-9 * (1.0 + glm::length(q)) * 100.0);
+    }
+}
+
+TEST_CASE("dmFrameNormal is the normal of the height field over the frame", "[meso][frame]") {
+    std::mt19937 g(5);
+    const glm::dvec3 vpu(64.0, 48.0, 16.0 / 0.05);
+    double worst = 0;
+    for (int i = 0; i < 500; ++i) {
+        glm::dvec3 pS, pT, n;
+        randomFrame(g, pS, pT, n);
+        std::uniform_real_distribution<double> u(0.0, 1.0);
+        const glm::dvec4 h(16 * u(g), 16 * u(g), 16 * u(g), 16 * u(g));
+        const glm::dvec2 f(u(g), u(g));
+        // X(f) = (f.x / W) pS + (f.y / H) pT + (bilinear height / (L / depth)) n; the height is
+        // linear along each of f.x and f.y, so central differences are exact up to rounding.
+        const auto X = [&](glm::dvec2 p) { return (p.x / vpu.x) * pS + (p.y / vpu.y) * pT + (kern::dmBilerp(h, p) / vpu.z) * n; };
+        const double e = 1e-4;
+        glm::dvec3 m = glm::cross(X(f + glm::dvec2(e, 0)) - X(f - glm::dvec2(e, 0)), X(f + glm::dvec2(0, e)) - X(f - glm::dvec2(0, e)));
+        if (glm::dot(m, n) < 0) m = -m;
+        worst = std::max(worst, glm::length(glm::normalize(m) - kern::dmFrameNormal(h, f, pS, pT, n, vpu)));
+    }
+    INFO("worst difference " << worst);
+    CHECK(worst < 1e-8); // differences of 1e-4 steps of O(1) values: ~1e-12 / 1e-4 relative
+
+    // On the plane's frame it is the plane's dmMesoWorldNormal (voxels per world unit W / tile).
+    const glm::dvec4 h(3.0, 7.5, 2.0, 9.0);
+    const glm::dvec2 f(0.3, 0.8);
+    const glm::dvec3 a = kern::dmFrameNormal(h, f, glm::dvec3(0.5, 0, 0), glm::dvec3(0, 0.5, 0), glm::dvec3(0, 0, 1), glm::dvec3(64, 64, 320));
+    const glm::dvec3 b = kern::dmMesoWorldNormal(h, f, glm::dvec3(128, 128, 320));
+    CHECK(glm::length(a - b) < 1e-15);
+}
+
+// The frame's defining property at a corner: the surface's derivatives along the face's u and
+// v (central differences of evaluated positions) are pS s_u + pT t_u and pS s_v + pT t_v,
+// with the chart's derivatives (s, t)_u, (s, t)_v.
+double worstDerivativeError(const Built& b, const FrameMesh& fm, const UvMap* uv, glm::dvec2 repeat, std::size_t stride) {
+    double worst = 0;
+    const double h = 1e-5;
+    for (std::size_t i = 0; i < fm.corners.size(); i += stride) {
+        const std::size_t t = i / 3;
+        const int face = b.tess.triangleFaces[t];
+        // At the triangle's centre: its corners lie on patch boundaries, where Gregory end caps
+        // meet their neighbours with G1, not C1, and next to an extraordinary vertex a Gregory
+        // patch's rational weights make central differences useless (errors of 1e-2 at 1e-3
+        // from the vertex).
+        const auto& uvs = b.tess.triangleUVs[t];
+        const glm::dvec2 p = (uvs[0] + uvs[1] + uvs[2]) / 3.0;
+        const auto P = [&](double u, double v) { return b.surface.evaluate(face, u, v, NormalMode::Accurate).position; };
+        const glm::dvec3 fu = (P(p.x + h, p.y) - P(p.x - h, p.y)) / (2 * h), fv = (P(p.x, p.y + h) - P(p.x, p.y - h)) / (2 * h);
+        glm::dvec2 su{repeat.x, 0.0}, sv{0.0, repeat.y};
+        if (uv) {
+            const UvSample w = uv->evaluate(face, p.x, p.y);
+            su = w.du * repeat;
+            sv = w.dv * repeat;
+        }
+        // The frame there, as buildFrameMesh computes it.
+        FrameVertex v;
+        FrameMeshOptions o;
+        o.repeat = repeat;
+        o.placement = uv ? FramePlacement::Uv : FramePlacement::Face;
+        if (!detail::frameAt(b.surface, uv, o, face, p, p, v)) continue; // a singular chart point (nudged in the mesh)
+        const double scale = glm::length(fu) + glm::length(fv);
+        worst = std::max(worst, (glm::length(v.pS * su.x + v.pT * su.y - fu) + glm::length(v.pS * sv.x + v.pT * sv.y - fv)) / scale);
+        // And the mesh's corner is the frame at the corner itself (where it is not singular).
+        FrameVertex c;
+        if (detail::frameAt(b.surface, uv, o, face, uvs[i % 3], uvs[i % 3], c))
+            CHECK((fm.corners[i].pS == c.pS && fm.corners[i].pT == c.pT && fm.corners[i].normal == c.normal));
+    }
+    return worst;
+}
+
+void checkSane(const FrameMesh& fm, const TriangleMesh& tess) {
+    REQUIRE(fm.corners.size() == 3 * tess.triangles.size());
+    std::size_t bad = 0;
+    for (std::size_t i = 0; i < fm.corners.size(); ++i) {
+        const FrameVertex& v = fm.corners[i];
+        const bool finite = std::isfinite(glm::dot(v.pS + v.pT + v.normal + v.position, glm::dvec3(1))) && std::isfinite(v.tex.x + v.tex.y);
+        const bool ok = finite && std::abs(glm::length(v.normal) - 1.0) < 1e-9 && frameIndependence(v.pS, v.pT, v.normal) >= kMinFrameIndependence &&
+                        v.position == tess.positions[static_cast<std::size_t>(tess.triangles[i / 3][static_cast<int>(i % 3)])];
+        bad += ok ? 0u : 1u;
+    }
+    CHECK(bad == 0);
+}
+
+TEST_CASE("a frame mesh's frames are its surface's derivatives in the texture's coordinates", "[meso][frame]") {
+    SECTION("Spot, by its UVs, on the limit surface") {
+        const Built b(dmtest::shape("spot_control_mesh"), 4.0);
+        const UvMap uv(b.mesh);
+        const FrameMesh fm = buildFrameMesh(b.surface, b.tess, &uv, {FramePlacement::Uv, {8.0, 8.0}, NormalMode::Accurate});
+        checkSane(fm, b.tess);
+        const double worst = worstDerivativeError(b, fm, &uv, {8.0, 8.0}, 7);
+        INFO("worst relative derivative error " << worst);
+        // Central differences with h = 1e-5: truncation O(h^2 |f'''|) and rounding
+        // O(1e-16 / 1e-5): ~1e-9 relative; the end caps' Gregory patches are smooth inside.
+        CHECK(worst < 1e-6);
+        // Texture coordinates: the UVs times the repeat.
+        for (std::size_t i = 0; i < fm.corners.size(); i += 101) {
+            const glm::dvec2 p = b.tess.triangleUVs[i / 3][i % 3];
+            CHECK(glm::length(fm.corners[i].tex - uv(b.tess.triangleFaces[i / 3], p.x, p.y) * 8.0) < 1e-12);
+        }
+    }
+    SECTION("the torus cage of tests/data, displaced, by its UVs with smooth UV rules") {
+        const Built b(dmtest::shape("catmark_torus"), 3.0, 0.05);
+        const UvMap uv(b.mesh, UvInterpolation::Smooth);
+        const FrameMesh fm = buildFrameMesh(b.surface, b.tess, &uv, {FramePlacement::Uv, {2.0, 3.0}, NormalMode::Accurate});
+        checkSane(fm, b.tess);
+        const double worst = worstDerivativeError(b, fm, &uv, {2.0, 3.0}, 3);
+        INFO("worst relative derivative error " << worst);
+        CHECK(worst < 1e-6);
+    }
+    SECTION("every face its own tiles, extraordinary vertices and N-gons") {
+        const Built b(dmtest::shape("catmark_nonquads"), 4.0, 0.02);
+        const FrameMesh fm = buildFrameMesh(b.surface, b.tess, nullptr, {FramePlacement::Face, {2.0, 2.0}, NormalMode::Accurate});
+        checkSane(fm, b.tess);
+        CHECK(worstDerivativeError(b, fm, nullptr, {2.0, 2.0}, 5) < 1e-6);
+        for (std::size_t i = 0; i < fm.corners.size(); i += 13)
+            CHECK(fm.corners[i].tex == b.tess.triangleUVs[i / 3][i % 3] * 2.0);
+    }
+}
+
+TEST_CASE("frame meshes of hard shapes: creases, boundaries, poles, N-gons", "[meso][frame]") {
+    std::vector<std::string> shapes = {"catmark_pole8", "catmark_helmet", "catmark_bishop", "catmark_tent_creases0", "catmark_xord_boundary",
+                                       "catmark_dart_edgecorner", "catmark_cube_creases0", "catmark_pyramid", "catmark_gregory_test2",
+                                       "catmark_toroidal_tet", "catmark_quadstrips", "catmark_edgecorner", "catmark_flap", "catmark_hole_test1"};
+    std::vector<std::string> paths;
+    for (const std::string& s : shapes) paths.push_back(dmtest::dataPath(s + ".obj"));
+#ifdef DISPMAP_SHARED_TESTDATA
+    // Every OpenSubdiv regression shape this project reads (the rest are refused as
+    // ArgumentError / MeshError by the mesh reader, tested elsewhere).
+    for (const auto& e : std::filesystem::directory_iterator(std::string(DISPMAP_SHARED_TESTDATA) + "/catmull-clark/shapes"))
+        if (e.path().extension() == ".obj") paths.push_back(e.path().string());
+#endif
+    int built = 0, withUv = 0;
+    for (const std::string& path : paths) {
+        std::optional<ControlMesh> mesh;
+        try {
+            mesh.emplace(ControlMesh::fromObjFile(path));
+        } catch (const Error&) {
+            continue; // non-manifold and other shapes the reader refuses (MeshError, ArgumentError)
+        }
+        INFO(path);
+        std::optional<Built> b;
+        try {
+            b.emplace(std::move(*mesh), 2.0, 0.01);
+        } catch (const Error&) {
+            continue; // e.g. tiles the builder refuses; not this test's subject
+        }
+        const FrameMesh face = buildFrameMesh(b->surface, b->tess, nullptr, {FramePlacement::Face, {1.0, 1.0}, NormalMode::Accurate});
+        checkSane(face, b->tess);
+        ++built;
+        if (b->mesh.hasUVs()) {
+            const UvMap uv(b->mesh);
+            try {
+                const FrameMesh m = buildFrameMesh(b->surface, b->tess, &uv, {FramePlacement::Uv, {1.0, 1.0}, NormalMode::Accurate});
+                checkSane(m, b->tess);
+                ++withUv;
+            } catch (const ArgumentError& e) {
+                // Regression shapes carry placeholder UVs (all corners of a face on one point):
+                // the clear refusal is the expected outcome there.
+                CHECK_THAT(e.what(), Contains("is singular (a degenerate UV chart there)"));
+            }
+        }
+    }
+    INFO(built << " shapes, " << withUv << " with usable UVs");
+    CHECK(built >= 12);
+}
+
+TEST_CASE("bad frame-mesh inputs are clear errors", "[meso][frame][inputs]") {
+    const Built b(dmtest::shape("catmark_torus"), 2.0);
+    const UvMap uv(b.mesh);
+    CHECK_THROWS_WITH(buildFrameMesh(b.surface, b.tess, nullptr, {}), Contains("UV placement needs the mesh's texture coordinates"));
+    for (const double r : {0.0, -1.0, std::nan(""), 1e5, std::numeric_limits<double>::infinity()})
+        CHECK_THROWS_WITH(buildFrameMesh(b.surface, b.tess, &uv, {FramePlacement::Uv, {1.0, r}, NormalMode::Accurate}),
+                          Contains("is not in (0, 1e4] tiles"));
+    const ControlMesh grid = ControlMesh::fromObjText(dmtest::gridObj(3, 2), "grid");
+    const UvMap other(grid);
+    CHECK_THROWS_WITH(buildFrameMesh(b.surface, b.tess, &other, {}), Contains("the UV map has 6 ptex faces"));
+    // UVs collapsed to one point: no chart to place tiles by.
+    std::string flat = dmtest::gridObj(2, 2);
+    for (std::size_t p = flat.find("vt "); p != std::string::npos; p = flat.find("vt ", p + 1)) {
+        const std::size_t e = flat.find('\n', p);
+        flat.replace(p, e - p, "vt 0.5 0.5");
+    }
+    const Built c(ControlMesh::fromObjText(flat, "flat-uv grid"), 2.0);
+    const UvMap cuv(c.mesh);
+    CHECK_THROWS_WITH(buildFrameMesh(c.surface, c.tess, &cuv, {}), Contains("is singular (a degenerate UV chart there)"));
+    // The same mesh placed per face has frames everywhere.
+    CHECK(buildFrameMesh(c.surface, c.tess, nullptr, {FramePlacement::Face, {1.0, 1.0}, NormalMode::Accurate}).triangleCount() ==
+          c.tess.triangleCount());
+}
+
+// --- Scenes ---------------------------------------------------------------------------------
+MesoSceneDesc parse(const std::string& json) {
+    return parseMesoScene(nlohmann::json::parse(json), "s.json", dmtest::dataPath("scenes"));
+}
+
+TEST_CASE("a mesostructure scene's base surface", "[meso][frame][scene]") {
+    SECTION("the Spot scene of tests/data") {
+        const std::string path = dmtest::dataPath("scenes/meso_spot_grating.json");
+        const MesoSceneDesc s = parseMesoScene(loadSceneJson(path), path, dmtest::dataPath("scenes"));
+        REQUIRE(s.base);
+        CHECK(s.placement.repeat == glm::dvec2(8.0));
+        CHECK(s.up == glm::dvec3(0, 1, 0));
+        const auto base = buildMesoSceneBase(s);
+        REQUIRE(base);
+        // 160 quads at 8 x 8 x 2 triangles and 92 N-gon sub-faces at half the factor (4 x 4 x 2).
+        CHECK(base->triangleCount() == 160 * 128 + 92 * 32);
+    }
+    SECTION("no base: the plane") {
+        CHECK_FALSE(buildMesoSceneBase(parse(R"({"mesostructure": {}})")));
+    }
+    SECTION("face placement on a mesh without UVs, a camera anywhere") {
+        const MesoSceneDesc s = parse(R"({"mesostructure": {"size": 16, "layers": 8},
+            "base": {"mesh": "builtin:torus", "placement": "face", "repeat": [2, 1], "tessellation": 2, "isolation": 3},
+            "camera": {"eye": [0, 0, -5], "up": [0, 1, 0]}, "effects": {"shadows": true}, "light": [0, 0, -1]})");
+        const auto base = buildMesoSceneBase(s);
+        REQUIRE(base);
+        CHECK(base->triangleCount() > 0);
+    }
+    SECTION("bad base objects") {
+        const auto bad = [](const std::string& base, const std::string& why) {
+            INFO(base);
+            CHECK_THROWS_WITH(parse(R"({"mesostructure": {}, "base": )" + base + "}"), Contains(why));
+        };
+        bad(R"({"placement": "uv"})", "'base.mesh' is missing");
+        bad(R"({"mesh": "builtin:torus", "colour": 1})", "unknown key 'base.colour'");
+        bad(R"({"mesh": "builtin:torus", "placement": "planar"})", "unknown 'base.placement' 'planar' (uv, face)");
+        bad(R"({"mesh": "builtin:torus", "repeat": [1]})", "'base.repeat' must be a number or [s, t]");
+        bad(R"({"mesh": "builtin:torus", "repeat": -2})", "'base.repeat' must be in (0, 1e4] tiles");
+        bad(R"({"mesh": "builtin:torus", "tessellation": 65})", "'base.tessellation' must be in 1..64");
+        bad(R"({"mesh": "builtin:torus", "uv": "smoth"})", "unknown 'base.uv' 'smoth'");
+        bad(R"({"mesh": "builtin:cone"})", "unknown built-in mesh 'cone'");
+        bad(R"({"mesh": "builtin:torus", "displacement": {"scale": "x"}})", "displacement.scale");
+        CHECK_THROWS_WITH(parse(R"({"mesostructure": {}, "camera": {"eye": [0, 0, 2], "up": [0, 0, 3]}})"),
+                          Contains("'camera.up' is zero or parallel to the view direction"));
+        CHECK_THROWS_WITH(parse(R"({"mesostructure": {}, "checker": -1})"), Contains("'checker' must be in [0, 1e6] voxels"));
+        // Without a base the plane's rules stay.
+        CHECK_THROWS_WITH(parse(R"({"mesostructure": {}, "camera": {"eye": [0, 1, -1]}})"), Contains("must be above the plane z = 0"));
+    }
+    SECTION("UV placement on a mesh without UVs: a clear error when the base is built") {
+        const MesoSceneDesc s = parse(R"({"mesostructure": {}, "base": {"mesh": "builtin:torus", "tessellation": 2}})");
+        CHECK_THROWS_WITH(buildMesoSceneBase(s), Contains("s.json: 'base.placement' \"uv\" needs texture coordinates and the mesh 'builtin:torus' has none"));
+    }
+    SECTION("a base mesh file that is missing") {
+        const MesoSceneDesc s = parse(R"({"mesostructure": {}, "base": {"mesh": "no_such_cage.obj"}})");
+        CHECK_THROWS_AS(buildMesoSceneBase(s), FileError);
+    }
+}
+
+} // namespace
+} // namespace frame_mesh_test
