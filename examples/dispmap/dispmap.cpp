@@ -439,7 +439,7 @@ struct MesoArgs {
     int layers = 16, block = 4, size = 0;
     double depth = -1;
     float spread = kDefaultCompressionSpread;
-    bool shadow = false, table = false;
+    bool shadow = false, table = false, curved = false;
 };
 
 int mesoCommand(const MesoArgs& a) {
@@ -449,6 +449,12 @@ int mesoCommand(const MesoArgs& a) {
         t.csv = a.csv;
         t.images = a.images;
         figures::printMesoTable(std::cout, t);
+        return 0;
+    }
+    if (a.curved) {
+        figures::MesoTableArgs t;
+        t.dataDir = a.data;
+        figures::printMesoCurvedTable(std::cout, t);
         return 0;
     }
     // Every option is checked before anything is read or built: the maps take seconds to
@@ -657,6 +663,8 @@ int main(int argc, char** argv) {
     mesoCmd->add_option("--size", ma.size, "box-filter the image to SIZE x SIZE texels first");
     mesoCmd->add_option("-o,--output", ma.output, "write the maps (mesostructure file)");
     mesoCmd->add_flag("--table", ma.table, "the table: every method on the built-in scenes, iterations, error, memory, time");
+    mesoCmd->add_flag("--curved", ma.curved, "the curved-base table: the locally planar march against an exact curved shell, and "
+                                              "the renderer on Spot beside the plane");
     mesoCmd->add_option("--csv", ma.csv, "with --table: also write it as CSV");
     mesoCmd->add_option("--images", ma.images, "with --table: write the iteration pictures (PNG) to this folder");
     mesoCmd->add_option("--data", ma.data, "folder of the built-in scenes' images");

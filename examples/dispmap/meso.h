@@ -66,6 +66,12 @@ struct MesoTableArgs {
 /// and the compression table.
 void printMesoTable(std::ostream& out, const MesoTableArgs& args);
 
+/// The curved-base table (`dispmap meso --curved`): the locally planar march against the exact
+/// shell of a cylinder, per slab depth / radius and incidence (texel error of the hits, false
+/// hits at silhouettes), then the renderer's time on the Spot scene beside the plane (when
+/// args.gpu and a device opens). Reads args.dataDir's scenes/meso_spot_grating.json.
+void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args);
+
 /// Colour of an iteration count as the paper's Figure 7 codes it: blue 0-10, green 10-34,
 /// red 35-59, yellow 60-100 (white above).
 void iterationColour(int iterations, unsigned char rgb[3]);
