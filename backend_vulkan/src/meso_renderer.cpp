@@ -47,7 +47,7 @@ constexpr std::uint32_t kTargets = 5;
 const VkFormat kFormats[kTargets] = {VK_FORMAT_R8G8B8A8_UNORM, VK_FORMAT_R32G32B32A32_SFLOAT, VK_FORMAT_R32G32B32A32_SFLOAT,
                                      VK_FORMAT_R32G32B32A32_SFLOAT, VK_FORMAT_R32G32B32A32_UINT};
 
-void validate(const MesoMaps& maps, const MesoRenderOptions& o) {
+void validate(const Context& ctx, const MesoMaps& maps, const MesoRenderOptions& o) {
     if (o.width < 1 || o.height < 1 || o.width > 4096 || o.height > 4096)
         throw ArgumentError("meso renderer: image size " + std::to_string(o.width) + " x " + std::to_string(o.height) +
                             " out of range [1, 4096]");
@@ -71,18 +71,36 @@ void validate(const MesoMaps& maps, const MesoRenderOptions& o) {
         if (n == 0 || n % 3 != 0 || n > kMaxFrameCorners)
             throw ArgumentError("meso renderer: the base mesh has " + std::to_string(n) + " corners (three a triangle, 3 .. " +
                                 std::to_string(kMaxFrameCorners) + ")");
+        if (n * 64 > ctx.properties().limits.maxStorageBufferRange)
+            throw ArgumentError("meso renderer: the base mesh's " + std::to_string(n * 64) + " bytes exceed the device's maxStorageBufferRange (" +
+                                std::to_string(ctx.properties().limits.maxStorageBufferRange) + ")");
         for (std::size_t i = 0; i < n; ++i) {
             const FrameVertex& v = o.base->corners[i];
-            const double sum = glm::dot(glm::dvec3(1.0), glm::abs(v.position) + glm::abs(v.pS) + glm::abs(v.pT) + glm::abs(v.normal)) +
-                               std::abs(v.tex.x) + std::abs(v.tex.y);
+            const double sum = glm::dot(glm::dvec3(1.0), glm::abs(v.position) + glm::abs(v.pS) + glm::abs(v.pT) + glm::abs(v.normal));
             if (!(sum <= kMaxDrawValue))
                 throw ArgumentError("meso renderer: base mesh corner " + std::to_string(i) + " has a value that is not finite or beyond +-" +
                                     dispmap::detail::drawNumber(kMaxDrawValue) + " (the GPU holds it as a float)");
+            if (!(std::max(std::abs(v.tex.x) * maps.field.width, std::abs(v.tex.y) * maps.field.height) <= kMaxFrameVoxel))
+                throw ArgumentError("meso renderer: base mesh corner " + std::to_string(i) + ": texture coordinate beyond " +
+                                    dispmap::detail::drawNumber(kMaxFrameVoxel) + " voxels (buildFrameMesh keeps them near the origin)");
+            if (!(frameIndependence(v.pS, v.pT, v.normal) >= kMinFrameIndependence) || !(std::abs(glm::length(v.normal) - 1.0) < 1e-3))
+                throw ArgumentError("meso renderer: base mesh corner " + std::to_string(i) + ": its frame is singular or its normal not of unit length");
         }
     }
     if (!(o.camera.fovYDeg > 0 && o.camera.fovYDeg < 180)) throw ArgumentError("meso renderer: field of view must be in (0, 180) degrees");
     if (!(glm::length(o.lightDirection) > 0) || !std::isfinite(glm::length(o.lightDirection)))
         throw ArgumentError("meso renderer: the light direction must be finite and non-zero");
+    if (o.albedo) {
+        const std::vector<std::uint32_t>& w = o.albedo->words;
+        const std::size_t levels = w.empty() ? 0 : w[0];
+        bool ok = levels >= 1 && levels <= 32 && w.size() >= 1 + 4 * levels;
+        for (std::size_t l = 0; ok && l < levels; ++l) {
+            const std::uint64_t width = w[2 + 4 * l], height = w[3 + 4 * l];
+            ok = width >= 1 && height >= 1 && width <= kMaxMesoAlbedoSize && height <= kMaxMesoAlbedoSize &&
+                 std::uint64_t{w[1 + 4 * l]} + width * height <= w.size();
+        }
+        if (!ok) throw ArgumentError("meso renderer: the albedo's words do not hold its levels (build it with mesoAlbedo)");
+    }
     if (o.shadows) {
         if (!maps.ddm.cones.shadow && !maps.ddm.cones.isotropic)
             throw ArgumentError("meso renderer: shadows need a DDM with shadow cones (build the maps with ConeSet::shadow = true), "
@@ -118,6 +136,7 @@ struct MesoRenderer::Impl {
     MesoBuffers maps;
     std::unique_ptr<Buffer> params;
     std::unique_ptr<Buffer> frame; // the base mesh's corners, or a placeholder
+    std::unique_ptr<Buffer> albedo; // MesoAlbedo::words, or a placeholder
     std::unique_ptr<OffscreenTargets> targets;
     std::unique_ptr<DescriptorSet> descriptors;
     std::unique_ptr<GraphicsPipeline> pipeline;
@@ -157,17 +176,22 @@ struct MesoRenderer::Impl {
             }
         frame = std::make_unique<Buffer>(ctx, corners.size() * sizeof(GpuFrameVertex));
         frame->upload(corners.data(), corners.size() * sizeof(GpuFrameVertex));
+        const std::vector<std::uint32_t> none(4, 0u);
+        const std::vector<std::uint32_t>& words = options.albedo ? options.albedo->words : none;
+        albedo = std::make_unique<Buffer>(ctx, words.size() * sizeof(std::uint32_t));
+        albedo->upload(words.data(), words.size() * sizeof(std::uint32_t));
     }
 
     void create() {
         const VkFormat depth = options.base ? VK_FORMAT_D32_SFLOAT : VK_FORMAT_UNDEFINED;
         if (options.base) requireFormat(ctx, depth, VK_FORMAT_FEATURE_DEPTH_STENCIL_ATTACHMENT_BIT, "the mesostructure renderer's depth");
         targets = std::make_unique<OffscreenTargets>(ctx, options.width, options.height, kFormats, depth);
-        const auto mb = maps.all(); // maps 0..4, params 5, base mesh 6
-        std::array<VkBuffer, 7> storage{};
+        const auto mb = maps.all(); // maps 0..4, params 5, base mesh 6, albedo 7
+        std::array<VkBuffer, 8> storage{};
         for (std::size_t i = 0; i < 5; ++i) storage[i] = mb[i]->handle();
         storage[5] = params->handle();
         storage[6] = frame->handle();
+        storage[7] = albedo->handle();
         descriptors = std::make_unique<DescriptorSet>(ctx, storage, std::span<const SampledImage>{},
                                                       VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT);
         const MesoTechnique& t = options.technique;
@@ -184,7 +208,8 @@ struct MesoRenderer::Impl {
                            static_cast<std::uint32_t>(t.binary),
                            options.shadows ? 1u : 0u,
                            static_cast<std::uint32_t>(options.shadowIterations),
-                           options.base ? 1u : 0u};
+                           options.base ? 1u : 0u,
+                           options.albedo ? 1u : 0u};
         d.stages = {{VK_SHADER_STAGE_VERTEX_BIT, options.base ? std::span<const std::uint32_t>(meso_base_vert_spv)
                                                               : std::span<const std::uint32_t>(meso_vert_spv), false},
                     {VK_SHADER_STAGE_FRAGMENT_BIT, meso_frag_spv, true}};
@@ -226,7 +251,7 @@ struct MesoRenderer::Impl {
 };
 
 MesoRenderer::MesoRenderer(Context& context, const MesoMaps& maps, const MesoRenderOptions& options) {
-    validate(maps, options);
+    validate(context, maps, options);
     if (!context.dynamicRenderingEnabled())
         throw VulkanError("Vulkan device '" + context.deviceName() +
                           "': dynamic rendering is not enabled (Vulkan 1.3 dynamicRendering or VK_KHR_dynamic_rendering), "

@@ -48,6 +48,7 @@ int renderMesoCommand(const RenderArgs& a, const nlohmann::json& j) {
     o.base = buildMesoSceneBase(s);
     o.camera.up = s.up;
     o.checkerVoxels = s.checker;
+    o.albedo = buildMesoSceneAlbedo(s);
     o.width = s.width;
     o.height = s.height;
     o.camera.eye = s.eye;
@@ -71,7 +72,7 @@ int renderMesoCommand(const RenderArgs& a, const nlohmann::json& j) {
     const char* methods[] = {"distance map", "DDM", "relief", "POM"};
     std::cout << "mesostructure scene '" << s.name << "' on " << ctx->deviceName() << "\n  " << methods[static_cast<int>(s.technique.method)]
               << (s.technique.method == MesoMethod::Ddm ? (s.technique.quadrics ? " + quadric, cones " + s.cones.name() : ", cones " + s.cones.name()) : "")
-              << (s.shadows ? ", self-shadowing" : "")
+              << (s.shadows ? ", self-shadowing" : "") << (o.albedo ? ", albedo " + std::to_string(o.albedo->width()) + " x " + std::to_string(o.albedo->height()) + (o.albedo->levels() > 1 ? " with mips" : "") : "")
               << (o.base ? "; on '" + s.base->mesh + "' (" + std::to_string(o.base->triangleCount()) + " triangles)" : "") << "; maps built: " << (maps.field.h.empty() ? "" : "heights")
               << (maps.distance.d.empty() ? "" : ", distance map") << (maps.ddm.grid.empty() ? "" : ", DDM")
               << (maps.quadrics.q.empty() ? "" : ", quadrics") << "\n  " << im.width << " x " << im.height << ": GPU time "

@@ -74,6 +74,7 @@ Viewer::Viewer(const ViewerOptions& options) : options_(options) {
             mesoScene_ = dispmap::parseMesoScene(j, options_.scene, std::filesystem::path(options_.scene).parent_path().string());
             mesoMaps_ = dispmap::buildMesoSceneMaps(mesoScene_);
             mesoBase_ = dispmap::buildMesoSceneBase(mesoScene_);
+            mesoAlbedo_ = dispmap::buildMesoSceneAlbedo(mesoScene_);
             width = mesoScene_.width;
             height = mesoScene_.height;
             orbit_ = Orbit::around(mesoScene_.eye, mesoScene_.target, mesoScene_.up);

@@ -99,6 +99,7 @@ class Viewer {
     dispmap::MesoSceneDesc mesoScene_;
     std::optional<dispmap::MesoMaps> mesoMaps_;
     std::shared_ptr<const dispmap::FrameMesh> mesoBase_; ///< the scene's base surface (none: the plane)
+    std::shared_ptr<const dispmap::MesoAlbedo> mesoAlbedo_; ///< the scene's colour (none: the checker)
     bool mesoDirty_ = true;
     VkBuffer staging_ = VK_NULL_HANDLE;
     VkDeviceMemory stagingMemory_ = VK_NULL_HANDLE;

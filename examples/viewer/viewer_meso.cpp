@@ -19,6 +19,7 @@ void Viewer::renderMesoImage() {
     o.camera.up = mesoScene_.up;
     o.base = mesoBase_;
     o.checkerVoxels = mesoScene_.checker;
+    o.albedo = mesoAlbedo_;
     o.camera.fovYDeg = mesoScene_.fov;
     o.lightDirection = mesoScene_.light;
     o.technique = mesoScene_.technique;

@@ -10,7 +10,7 @@
 #define rvec3 vec3
 #define rvec4 vec4
 #define rmat3 mat3
-#line 31 "include/dispmap/kernels/meso_march.h"
+#line 32 "include/dispmap/kernels/meso_march.h"
 // Donnelly's sphere tracing: `iterations` steps of the trilinearly read distance, or fewer
 // when it falls to eps or below (dmSphereTraceStep). The hit is where the last step ends; a
 // ray that rose through the top is a miss.
@@ -116,6 +116,69 @@ DM_TFUNC bool dmMesoMarchHeight(DmMesoMaps m, rvec3 o, rvec3 d, int linear, int 
     }
     tHit = real(0.5) * (bracket.x + bracket.y);
     return true;
+}
+
+// --- The albedo (meso/albedo.h: MesoAlbedo's words) -----------------------------------------
+// An RGBA8 texel, red in the lowest byte, as four values in [0, 1].
+DM_TFUNC rvec4 dmUnpackRgba8(uint w, real unit) {
+    return rvec4(real(w & 255u), real((w >> 8u) & 255u), real((w >> 16u) & 255u), real(w >> 24u)) / unit;
+}
+
+// The mip level of a pixel's footprint: dx, dy the texture coordinate's change (tiles) to the
+// next pixel in x and y (the derivatives of the base's texture coordinate), size level 0's
+// texels; log2 of the longer footprint in texels, at least 0.
+DM_TFUNC real dmMesoAlbedoLod(rvec2 dx, rvec2 dy, rvec2 size) {
+    rvec2 a = dx * size;
+    rvec2 b = dy * size;
+    real m = max(a.x * a.x + a.y * a.y, b.x * b.x + b.y * b.y);
+    return m > real(1) ? real(0.5) * log2(m) : real(0);
+}
+
+// Level `level` at texture coordinate uv (tiles; the image repeats), bilinear. Level 0's
+// texel (x, y) sits at (x / w, y / h) of the tile, where the height field's sample
+// (x W / w, y H / h) is (a colour image paired with the height image colours each height
+// sample with its own pixel); a coarser level's texel sits at the mean of the level-0 texels
+// it averages: p = uv size - 1/2 + size / (2 size0) along each axis.
+DM_TFUNC rvec4 dmMesoAlbedoBilinear(DmMesoMaps m, int level, rvec2 uv) {
+    int offset = int(dmMesoFetchAlbedo(m, 1 + 4 * level));
+    int w = int(dmMesoFetchAlbedo(m, 2 + 4 * level));
+    int h = int(dmMesoFetchAlbedo(m, 3 + 4 * level));
+    real w0 = real(int(dmMesoFetchAlbedo(m, 2)));
+    real h0 = real(int(dmMesoFetchAlbedo(m, 3)));
+    rvec2 p = rvec2(uv.x * real(w) - real(0.5) + real(0.5) * real(w) / w0, uv.y * real(h) - real(0.5) + real(0.5) * real(h) / h0);
+    rvec2 c = floor(p);
+    rvec2 f = p - c;
+    // The cell's corners, wrapped: the lower corner's residue first, its neighbour one more
+    // (mod the size), so no coordinate overflows however far uv is from the origin.
+    int x0 = int(c.x - floor(c.x / real(w)) * real(w));
+    int y0 = int(c.y - floor(c.y / real(h)) * real(h));
+    x0 = min(max(x0, 0), w - 1);
+    y0 = min(max(y0, 0), h - 1);
+    int x1 = x0 + 1 == w ? 0 : x0 + 1;
+    int y1 = y0 + 1 == h ? 0 : y0 + 1;
+    real unit = real(255);
+    rvec4 a = dmUnpackRgba8(dmMesoFetchAlbedo(m, offset + y0 * w + x0), unit);
+    rvec4 b = dmUnpackRgba8(dmMesoFetchAlbedo(m, offset + y0 * w + x1), unit);
+    rvec4 cc = dmUnpackRgba8(dmMesoFetchAlbedo(m, offset + y1 * w + x1), unit);
+    rvec4 d = dmUnpackRgba8(dmMesoFetchAlbedo(m, offset + y1 * w + x0), unit);
+    rvec4 lo = a + (b - a) * f.x;
+    rvec4 hi = d + (cc - d) * f.x;
+    return lo + (hi - lo) * f.y;
+}
+
+// Trilinear: the two levels around lod (clamped to the pyramid), mixed.
+DM_TFUNC rvec4 dmMesoAlbedo(DmMesoMaps m, rvec2 uv, real lod) {
+    int levels = int(dmMesoFetchAlbedo(m, 0));
+    real l = min(max(lod, real(0)), real(levels - 1));
+    int l0 = int(floor(l));
+    int l1 = min(l0 + 1, levels - 1);
+    real f = l - real(l0);
+    rvec4 a = dmMesoAlbedoBilinear(m, l0, uv);
+    if (l1 == l0 || f == real(0)) {
+        return a;
+    }
+    rvec4 b = dmMesoAlbedoBilinear(m, l1, uv);
+    return a + (b - a) * f;
 }
 #undef real
 #undef rvec2

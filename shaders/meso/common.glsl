@@ -1,6 +1,6 @@
 // The MesoRenderer's parameters (backend_vulkan/src/meso_renderer.cpp, GpuMesoParams), read by
 // plane.vert, base.vert and meso.frag. The maps are bindings 0..4 (march.glsl); the base mesh
-// (FrameMesh corners, three a triangle) is binding 6.
+// (FrameMesh corners, three a triangle) is binding 6, the albedo (MesoAlbedo::words) binding 7.
 layout(std430, set = 0, binding = 5) readonly buffer MesoParams {
     mat4 viewProj;
     vec4 eye;           // world

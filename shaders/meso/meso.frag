@@ -3,7 +3,8 @@
 // normalisation, dmTangentToVoxel; on a base mesh first into the pixel's interpolated frame,
 // dmFrameCoordinates), the marcher the specialisation constants choose (only that one
 // survives specialisation), the shading with the height field's normal and, only when asked
-// for, a shadow ray through the DDM's shadow cones. On a base mesh the depth is the hit's
+// for, a shadow ray through the DDM's shadow cones; the colour is the albedo image's at the hit
+// (trilinear over its mips, the level from the pixel's footprint) or a checker. On a base mesh the depth is the hit's
 // (dmFramePoint), so the detail occludes and is occluded where it is, and a ray that misses
 // (it leaves through the top, e.g. from a back face) writes the far plane: what lies behind
 // it shows through. Every formula is a kernel (kernels/meso.h, kernels/meso_shade.h);
@@ -11,6 +12,7 @@
 #extension GL_GOOGLE_include_directive : require
 #define DM_MESO_SET 0
 #define DM_MESO_BINDING 0
+#define DM_MESO_ALBEDO_BINDING 7
 #include "march.glsl"
 #include "meso_shade.glsl"
 #include "common.glsl"
@@ -25,6 +27,7 @@ layout(constant_id = 6) const int kBinary = 6;
 layout(constant_id = 7) const bool kShadows = false;
 layout(constant_id = 8) const int kShadowIterations = 64;
 layout(constant_id = 9) const int kBase = 0;            // 0 the plane z = 0, 1 a base mesh (base.vert)
+layout(constant_id = 10) const bool kAlbedo = false;    // the albedo image (binding 7), else the checker
 
 layout(location = 0) in vec3 worldPos;
 layout(location = 1) in vec2 tex;
@@ -60,6 +63,11 @@ void main() {
         o = dmMesoEntry(vec3(tex, 0.0), vpu, s.layers);
         d = dmTangentToVoxel(dmFrameCoordinates(worldPos - params.eye.xyz, framePS, framePT, n0), vpu);
     }
+    // The footprint of the pixel in the texture (tiles), for the albedo's mip level: the
+    // entry's texture coordinate differentiated here, in uniform control flow.
+    vec2 uvEntry = vec2(o.x / float(s.width), o.y / float(s.height));
+    vec2 uvDx = dFdx(uvEntry);
+    vec2 uvDy = dFdy(uvEntry);
     DmMesoHit h;
     if (kBase != 0 && !(d.z < 0.0)) {
         // Seen from below the base (a back face): the ray leaves through the top at once.
@@ -109,9 +117,16 @@ void main() {
             lit = 0.0; // the base surface turns away from the light: its own shape shadows the point
         }
     }
-    float albedo = dmMesoChecker(vec2(p.x, p.y), params.voxelsPerUnit.w);
-    float v = dmMesoShade(albedo, n, params.light.xyz, params.light.w, lit);
-    outColor = vec4(v * 0.95, v * 0.85, v * 0.7, 1.0);
+    if (kAlbedo) {
+        float lod = dmMesoAlbedoLod(uvDx, uvDy, vec2(float(dmMesoFetchAlbedo(s, 2)), float(dmMesoFetchAlbedo(s, 3))));
+        vec4 a = dmMesoAlbedo(s, vec2(p.x / float(s.width), p.y / float(s.height)), lod);
+        float v = dmMesoShade(1.0, n, params.light.xyz, params.light.w, lit);
+        outColor = vec4(a.rgb * v, 1.0);
+    } else {
+        float albedo = dmMesoChecker(vec2(p.x, p.y), params.voxelsPerUnit.w);
+        float v = dmMesoShade(albedo, n, params.light.xyz, params.light.w, lit);
+        outColor = vec4(v * 0.95, v * 0.85, v * 0.7, 1.0);
+    }
     outHit = vec4(p, h.t);
     outCounts = uvec4(uint(h.iterations), shadowIterations, lit == 0.0 ? 1u : 0u, 1u);
 }

@@ -257,6 +257,15 @@ TEST_CASE("on a curved base the renderer marches every pixel as the CPU marcher 
             // A pixel's ray is a unit voxel-space direction; one that does not go down is a back
             // face's, marched not at all (0 iterations, a miss).
             CHECK(std::abs(glm::length(img.rayDir[i]) - 1.0f) < 1e-5f);
+            // No detail outside the shell: a hit lies in the slab below the base (voxel z in
+            // [0, L]). Relief mapping's answer is its last bracket's midpoint: where the ray
+            // meets the floor on a zero height, the linear search can step past it (the sample
+            // on the floor rounds to just above it) and the bisections close in from below,
+            // half a final bracket under the floor: 16 voxels / 32 steps / 2^6 / 2 = 1/256.
+            if (img.hit[i]) {
+                INFO("hit z " << img.hitPoint[i].z);
+                CHECK((img.hitPoint[i].z >= (m == MesoMethod::Relief ? -1.0f / 256.0f : 0.0f) && img.hitPoint[i].z <= 16.0f));
+            }
             if (!(img.rayDir[i].z < 0)) {
                 ++backFaces;
                 CHECK((img.iterations[i] == 0 && !img.hit[i]));
@@ -266,7 +275,8 @@ TEST_CASE("on a curved base the renderer marches every pixel as the CPU marcher 
         }
         INFO(p.covered << " covered, " << hits << " hits, " << backFaces << " back faces, " << frontMisses << " front-face misses");
         CHECK(hits > 64u * 48u / 5); // Spot fills about half of the view
-        // Height-field rays that go down always end on the field or the slab's floor.
+        // No holes inside the outline: height-field rays that go down always end on the field or
+        // the slab's floor (the locally planar model has no silhouettes of its own yet).
         CHECK(frontMisses == 0);
         if (strict) CHECK(p.same == p.covered);
     }
@@ -329,6 +339,14 @@ TEST_CASE("bad base meshes are refused before anything is drawn", "[meso]") {
     bad->corners[5].pT.y = std::nan("");
     o.base = bad;
     CHECK_THROWS_WITH(dispmap::vulkan::MesoRenderer(ctx, shadowMaps(), o), Catch::Contains("base mesh corner 5 has a value that is not finite"));
+    bad = std::make_shared<dispmap::FrameMesh>(*spotBase());
+    bad->corners[7].pT = bad->corners[7].pS * 2.0; // a singular frame
+    o.base = bad;
+    CHECK_THROWS_WITH(dispmap::vulkan::MesoRenderer(ctx, shadowMaps(), o), Catch::Contains("corner 7: its frame is singular"));
+    bad = std::make_shared<dispmap::FrameMesh>(*spotBase());
+    bad->corners[2].tex.x = 1e5; // 1.6e6 voxels: float would lose the texel
+    o.base = bad;
+    CHECK_THROWS_WITH(dispmap::vulkan::MesoRenderer(ctx, shadowMaps(), o), Catch::Contains("corner 2: texture coordinate beyond"));
     o.base = spotBase();
     o.checkerVoxels = -1;
     CHECK_THROWS_WITH(dispmap::vulkan::MesoRenderer(ctx, shadowMaps(), o), Catch::Contains("checker period"));
@@ -338,5 +356,71 @@ TEST_CASE("bad base meshes are refused before anything is drawn", "[meso]") {
     o.lightDirection = {0.0, 0.0, -1.0};
     o.shadows = true;
     CHECK_NOTHROW(dispmap::vulkan::MesoRenderer(ctx, shadowMaps(), o));
+    dmgpu::checkNoValidationMessages();
+}
+
+// --- The albedo (meso/albedo.h) -------------------------------------------------------------
+namespace {
+std::shared_ptr<const dispmap::MesoAlbedo> albedoOf(int w, int h, bool mips, bool checker) {
+    std::vector<std::uint8_t> px(4 * static_cast<std::size_t>(w) * static_cast<std::size_t>(h));
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const std::size_t i = 4 * static_cast<std::size_t>(y * w + x);
+            const bool on = ((x + y) & 1) != 0;
+            px[i] = checker ? (on ? 255 : 0) : static_cast<std::uint8_t>(37 * x + 11 * y);
+            px[i + 1] = checker ? px[i] : static_cast<std::uint8_t>(200 - 5 * y);
+            px[i + 2] = checker ? px[i] : static_cast<std::uint8_t>(90 + 13 * x);
+            px[i + 3] = 255;
+        }
+    return std::make_shared<const dispmap::MesoAlbedo>(dispmap::mesoAlbedo(w, h, px, mips));
+}
+} // namespace
+
+TEST_CASE("the albedo is the CPU's at every hit; its mips remove the aliasing", "[meso]") {
+    auto& ctx = dmgpu::context();
+    const bool strict = dispmap::parity::strictFor(ctx, dispmap::parity::Options{});
+    for (const bool curved : {false, true}) {
+        // Unlit (ambient 1: the shade factor is exactly 1), one level: the colour is the
+        // bilinear albedo at the hit, as the CPU samples it, to the 8-bit target's rounding.
+        MesoRenderOptions o = curved ? spotScene(MesoMethod::Ddm) : smallScene(MesoMethod::Ddm);
+        o.ambient = 1.0;
+        o.albedo = albedoOf(7, 5, false, false);
+        const MesoImage img = dispmap::vulkan::renderMeso(ctx, shadowMaps(), o);
+        std::size_t hits = 0, close = 0;
+        for (std::size_t i = 0; i < img.hit.size(); ++i) {
+            if (!img.hit[i]) continue;
+            ++hits;
+            const glm::vec4 cpu = dispmap::sampleMesoAlbedo<float>(*o.albedo, glm::dvec2(img.hitPoint[i].x / 16.0f, img.hitPoint[i].y / 16.0f), 0.0);
+            double worst = 0;
+            for (int c = 0; c < 3; ++c) worst = std::max(worst, std::abs(double(img.rgba[4 * i + static_cast<std::size_t>(c)]) - 255.0 * double(cpu[c])));
+            close += worst <= 0.51 ? 1u : 0u; // UNORM8 rounds to nearest (plus float noise)
+        }
+        INFO((curved ? "Spot" : "plane") << ": " << close << " of " << hits << " hit pixels within 0.51 of the CPU's colour");
+        REQUIRE(hits > 500);
+        if (strict) CHECK(close == hits);
+        CHECK(double(close) >= 0.99 * double(hits));
+    }
+    // A one-texel checker, several texels a pixel: without mips each pixel is one bilinear
+    // sample of it, anything from black to white (aliasing; 0.029 measured), with them the
+    // pixels average to grey (0.0015).
+    const auto spread = [&](bool mips) {
+        MesoRenderOptions o = smallScene(MesoMethod::Ddm);
+        o.ambient = 1.0;
+        o.albedo = albedoOf(64, 64, mips, true);
+        const MesoImage img = dispmap::vulkan::renderMeso(ctx, shadowMaps(), o);
+        double sum = 0, sum2 = 0, n = 0;
+        for (std::size_t i = 0; i < img.hit.size(); ++i)
+            if (img.hit[i]) {
+                const double v = img.rgba[4 * i] / 255.0;
+                sum += v;
+                sum2 += v * v;
+                n += 1;
+            }
+        return sum2 / n - (sum / n) * (sum / n);
+    };
+    const double without = spread(false), with = spread(true);
+    INFO("variance of the grey level: " << without << " without mips, " << with << " with");
+    CHECK(without > 0.01);
+    CHECK(with < 0.2 * without);
     dmgpu::checkNoValidationMessages();
 }

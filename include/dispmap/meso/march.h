@@ -12,6 +12,7 @@
 #include <cmath>
 #include <limits>
 
+#include "dispmap/meso/albedo.h"
 #include "dispmap/meso/compression.h"
 #include "dispmap/meso/ddm.h"
 #include "dispmap/meso/distance_map.h"
@@ -54,6 +55,7 @@ template <typename real> struct DmMesoMapsT {
     const DirectionalDistanceMap* dense = nullptr;
     const CompressedDdm* compressed = nullptr;
     const ColumnQuadrics* quadrics = nullptr;
+    const MesoAlbedo* albedo = nullptr;
 };
 template <typename real> float dmMesoFetchDistance(const DmMesoMapsT<real>& m, int i, int j, int k) { return m.distance->at(i, j, k); }
 template <typename real> float dmMesoFetchDdm(const DmMesoMapsT<real>& m, int c, int i, int j, int k) {
@@ -66,9 +68,21 @@ template <typename real> glm::vec4 dmMesoFetchQuadric(const DmMesoMapsT<real>& m
                     static_cast<std::size_t>(dispmap::detail::wrapIndex(i, q.width))) +
                static_cast<std::size_t>(part)];
 }
+template <typename real> std::uint32_t dmMesoFetchAlbedo(const DmMesoMapsT<real>& m, int i) { return m.albedo->words[static_cast<std::size_t>(i)]; }
 } // namespace dispmap::kern
 
 namespace dispmap {
+
+/// The albedo at texture coordinate uv (tiles) and mip level lod (kern::dmMesoAlbedo, as the
+/// renderer's fragment shader samples it), RGBA in [0, 1]. ArgumentError for an empty albedo
+/// or a coordinate or level that is not finite.
+template <class real> glm::vec<4, real> sampleMesoAlbedo(const MesoAlbedo& a, const glm::dvec2& uv, double lod) {
+    if (a.levels() < 1) throw ArgumentError("sampleMesoAlbedo: the albedo is empty");
+    if (!std::isfinite(uv.x + uv.y + lod)) throw ArgumentError("sampleMesoAlbedo: texture coordinate or level not finite");
+    kern::DmMesoMapsT<real> m;
+    m.albedo = &a;
+    return kern::dmMesoAlbedo<real>(m, glm::vec<2, real>(uv), real(lod));
+}
 
 /// The exact reference: the ray against the bilinear height field column by column (2D DDA),
 /// with the exact root of each column's quadratic (dmRayHeightCell), in `real`. Stops as a miss

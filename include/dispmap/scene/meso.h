@@ -4,11 +4,12 @@
 // mesostructure.
 //
 //   {"mesostructure": {"height": "bricks.png", "size": 64, "layers": 16, "depth": 14,
-//                      "cones": "4x1", "block": 4},          (or "function": "grating")
+//                      "cones": "4x1", "block": 4,          (or "function": "grating")
+//                      "albedo": "bricks_colour.png"},
 //    "camera": {"eye": [0.3, -1.2, 0.7], "target": [0, 0, 0], "up": [0, 0, 1], "fov": 45},
 //    "light": [0.4, 0.3, 0.8], "resolution": [320, 240], "tile": 0.5, "slab": 0.06, "checker": 8,
 //    "effects": {"technique": "ddm", "quadrics": true, "iterations": 128, "exitRule": 1,
-//                "eps": -1, "linear": 32, "binary": 6, "shadows": false},
+//                "eps": -1, "linear": 32, "binary": 6, "shadows": false, "mips": true},
 //    "base": {"mesh": "spot.obj", "isolation": 6, "displacement": {...},
 //             "placement": "uv", "repeat": [8, 8], "uv": "mesh", "tessellation": 8}}
 //
@@ -19,8 +20,10 @@
 // draw), tessellated uniformly with `tessellation` segments a face edge (1..64), placed by the
 // mesh's UVs ("uv", interpolated by the rule "uv": surface/uv_map.h) or per ptex face
 // ("face"), `repeat` tiles per UV unit or per face (a number or [s, t]); `slab` is the depth
-// in world units below the surface (surface/frame_mesh.h, FrameMesh). "checker": the albedo's
-// checker period in voxels (0: none).
+// in world units below the surface (surface/frame_mesh.h, FrameMesh). "albedo": a colour
+// image (PNG, RGBA8) over one tile (meso/albedo.h), sampled at each hit trilinearly over its
+// mips ("mips": false: level 0 only, bilinear); none: a checker of period "checker" voxels
+// (0: plain).
 //
 // Effects, and only those: the maps the technique reads are the only maps built (a relief
 // scene builds no distance map and no DDM; shadow cones only with "shadows"), and the
@@ -47,6 +50,8 @@ struct MesoSceneDesc {
     std::string name;
     std::string heightImage;        ///< image path (resolved against the scene's folder); empty: the function
     std::string function = "grating";
+    std::string albedoImage;        ///< colour image path (resolved); empty: the checker
+    bool albedoMips = true;
     int size = 64, layers = 16;     ///< texels per side after a box filter (0: the image's), voxel layers
     double depth = -1;              ///< voxels of white (default: 7/8 of the layers)
     ConeSet cones{4, 1, false, false};
@@ -286,17 +291,19 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
     const auto fail = [&](const std::string& why) { return ArgumentError(name + ": " + why); };
     mesoKeys(j, name, "", {"mesostructure", "camera", "light", "resolution", "tile", "slab", "checker", "effects", "base"});
     const nlohmann::json& m = j["mesostructure"];
-    mesoKeys(m, name, "mesostructure", {"height", "function", "size", "layers", "depth", "cones", "block"});
-    if (m.contains("height")) {
-        if (!m["height"].is_string()) throw fail("'mesostructure.height' must be a file name");
-        const std::string& h = m["height"].get_ref<const std::string&>();
-        if (h.empty()) throw fail("'mesostructure.height' is empty");
+    mesoKeys(m, name, "mesostructure", {"height", "function", "size", "layers", "depth", "cones", "block", "albedo"});
+    const auto path = [&](const char* key) {
+        if (!m[key].is_string()) throw fail(std::string("'mesostructure.") + key + "' must be a file name");
+        const std::string& h = m[key].get_ref<const std::string&>();
+        if (h.empty()) throw fail(std::string("'mesostructure.") + key + "' is empty");
         if (h.size() > kMaxScenePathLength)
-            throw fail("'mesostructure.height' is a path of " + std::to_string(h.size()) + " characters, longer than " +
+            throw fail(std::string("'mesostructure.") + key + "' is a path of " + std::to_string(h.size()) + " characters, longer than " +
                        std::to_string(kMaxScenePathLength));
         const std::filesystem::path p(h);
-        s.heightImage = p.is_absolute() || baseDir.empty() ? p.string() : (std::filesystem::path(baseDir) / p).string();
-    }
+        return p.is_absolute() || baseDir.empty() ? p.string() : (std::filesystem::path(baseDir) / p).string();
+    };
+    if (m.contains("height")) s.heightImage = path("height");
+    if (m.contains("albedo")) s.albedoImage = path("albedo");
     if (m.contains("function")) {
         if (!m["function"].is_string()) throw fail("'mesostructure.function' must be a name");
         s.function = m["function"].get<std::string>();
@@ -347,7 +354,7 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
     if (!(s.checker >= 0 && s.checker <= 1e6)) throw fail("'checker' must be in [0, 1e6] voxels (0: no checker)");
     if (j.contains("effects")) {
         const nlohmann::json& e = j["effects"];
-        mesoKeys(e, name, "effects", {"technique", "quadrics", "iterations", "exitRule", "eps", "linear", "binary", "shadows"});
+        mesoKeys(e, name, "effects", {"technique", "quadrics", "iterations", "exitRule", "eps", "linear", "binary", "shadows", "mips"});
         MesoTechnique& t = s.technique;
         if (e.contains("technique")) {
             const std::string k = e["technique"].is_string() ? e["technique"].get<std::string>() : "";
@@ -364,6 +371,7 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
         };
         t.quadrics = flag("quadrics", t.quadrics);
         s.shadows = flag("shadows", s.shadows);
+        s.albedoMips = flag("mips", s.albedoMips);
         t.iterations = mesoNumber(e, "iterations", t.iterations, name, "effects.");
         t.exitRule = mesoNumber(e, "exitRule", t.exitRule, name, "effects.");
         t.eps = mesoNumber(e, "eps", t.eps, name, "effects.");
@@ -392,6 +400,7 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
     if (!(glm::length(s.target - s.eye) > 0)) throw fail("'camera.eye' and 'camera.target' are the same point");
     if (!(glm::length(glm::cross(s.target - s.eye, s.up)) > 1e-9 * glm::length(s.target - s.eye) * glm::length(s.up)))
         throw fail("'camera.up' is zero or parallel to the view direction");
+    if (!s.base && !(s.up.x == 0 && s.up.y == 0 && s.up.z > 0)) throw fail("'camera.up' must be +z over the plane (another with a 'base')");
     if (!(glm::length(s.light) > 0)) throw fail("'light' is the zero vector");
     if (!s.base && s.shadows && !(s.light.z > 0)) throw fail("'light' must be above the horizon (z > 0) with 'effects.shadows'");
     if (s.size > 0)
@@ -425,15 +434,33 @@ inline MesoMaps buildMesoSceneMaps(const MesoSceneDesc& s) {
     return buildMesoMaps(field, o);
 }
 
+/// The scene's albedo ("mesostructure.albedo", with its mips unless "effects.mips" is false),
+/// or none. FileError for an image that cannot be read, ArgumentError (naming the scene) for
+/// one larger than kMaxMesoAlbedoSize.
+inline std::shared_ptr<const MesoAlbedo> buildMesoSceneAlbedo(const MesoSceneDesc& s) {
+    if (s.albedoImage.empty()) return nullptr;
+    const RgbaImage img = readRgbaPng(s.albedoImage, kMaxMesoAlbedoSize);
+    try {
+        return std::make_shared<const MesoAlbedo>(mesoAlbedo(img.width, img.height, img.rgba, s.albedoMips));
+    } catch (const ArgumentError& e) {
+        throw ArgumentError(s.name + ": 'mesostructure.albedo': " + e.what());
+    }
+}
+
 /// The scene's base surface as the renderer draws it (none without "base"): the mesh and its
 /// displacement built as a surface scene's (SceneSurface), tessellated uniformly, with the
 /// frame of every triangle corner (buildFrameMesh). Throws what those throw: FileError /
 /// MeshError for the mesh, ArgumentError naming the scene for UV placement on a mesh without
-/// texture coordinates or a singular frame.
+/// texture coordinates, a singular frame, or more than kMaxFrameCorners / 3 triangles (from
+/// the factors, before anything is tessellated).
 inline std::shared_ptr<const FrameMesh> buildMesoSceneBase(const MesoSceneDesc& s) {
     if (!s.base) return nullptr;
     const SceneSurface surface(*s.base);
-    const TriangleMesh tess = Tessellator(surface.surface, uniformTessFactors(surface.base, s.tessellation)).tessellate();
+    const Tessellator tessellator(surface.surface, uniformTessFactors(surface.base, s.tessellation));
+    if (const std::uint64_t triangles = tessellator.estimate().triangles; 3 * triangles > kMaxFrameCorners)
+        throw ArgumentError(s.name + ": 'base.tessellation' " + detail::drawNumber(s.tessellation) + " makes " + std::to_string(triangles) +
+                            " triangles, more than the " + std::to_string(kMaxFrameCorners / 3) + " a base may have");
+    const TriangleMesh tess = tessellator.tessellate();
     try {
         std::optional<UvMap> uv;
         if (s.placement.placement == FramePlacement::Uv) {

@@ -14,6 +14,8 @@
 //  * Uv: (s, t) = the mesh's UV (UvMap, with its interpolation rule) times `repeat`;
 //  * Face: (s, t) = the ptex face's (u, v) times `repeat` (every face its own tiles; no UVs
 //    needed, seams at face edges where neighbouring faces' parameters disagree).
+// Each triangle's (s, t) are moved by whole tiles so that their smallest is in [0, 1) (the
+// texture repeats; float voxel coordinates on the GPU stay precise).
 // With f_u, f_v the surface's derivatives and M = d(s, t)/d(u, v) the chart's, the frame is
 // [pS pT] = [f_u f_v] M^-1. Where M or the frame is singular at a corner (a UV chart
 // collapsing to a point, a pole), the corner's frame is taken a step (kFrameNudge) towards
@@ -56,6 +58,11 @@ struct FrameMeshOptions {
     /// frame of the approximate normals). Equal on a surface without displacement.
     NormalMode normals = NormalMode::Accurate;
 };
+
+/// Largest frame mesh (corners, three a triangle): 2^21, the 128 MiB (64 bytes a corner on the
+/// GPU) of storage buffer every Vulkan device must bind (maxStorageBufferRange's minimum);
+/// about 700k triangles.
+inline constexpr std::size_t kMaxFrameCorners = std::size_t{1} << 21;
 
 /// How far (in the face's (u, v)) a corner with a singular frame is moved towards its face's
 /// centre before its frame is evaluated again.
@@ -114,6 +121,9 @@ inline FrameMesh buildFrameMesh(const DisplacedSurface& surface, const TriangleM
     if (map && map->ptexFaceCount() != surface.base().faceCount())
         throw ArgumentError("frame mesh: the UV map has " + std::to_string(map->ptexFaceCount()) + " ptex faces, the surface " +
                             std::to_string(surface.base().faceCount()));
+    if (3 * tess.triangles.size() > kMaxFrameCorners)
+        throw ArgumentError("frame mesh: " + std::to_string(tess.triangles.size()) + " triangles, more than the " +
+                            std::to_string(kMaxFrameCorners / 3) + " a frame mesh may have (a lower tessellation factor)");
     FrameMesh out;
     out.corners.resize(3 * tess.triangles.size());
     std::vector<char> singular(3 * tess.triangles.size(), 0);
@@ -127,6 +137,11 @@ inline FrameMesh buildFrameMesh(const DisplacedSurface& surface, const TriangleM
                 !detail::frameAt(surface, map, o, face, p, p + (glm::dvec2(0.5) - p) * (2.0 * kFrameNudge), v))
                 singular[3 * t + c] = 1;
         }
+        // The texture repeats every tile: each triangle's coordinates moved by whole tiles to
+        // start in [0, 1), so the voxel coordinates the GPU forms in float stay small
+        // (a repeat of 1e4 would otherwise leave a quarter voxel of resolution at W = 256).
+        const glm::dvec2 shift = glm::floor(glm::min(glm::min(out.corners[3 * t].tex, out.corners[3 * t + 1].tex), out.corners[3 * t + 2].tex));
+        for (std::size_t c = 0; c < 3; ++c) out.corners[3 * t + c].tex -= shift;
     });
     for (std::size_t i = 0; i < singular.size(); ++i)
         if (singular[i]) {

@@ -12,7 +12,8 @@
 // a base mesh the pass has a depth buffer and writes the hit's depth; rays that miss show
 // what lies behind. Shading: Lambert with the normal of the bilinear height field at the hit
 // and a checker albedo; a shadow ray through the DDM's shadow cones only when `shadows` is on
-// (on a base mesh, a point whose base turns away from the light is in shadow).
+// (on a base mesh, a point whose base turns away from the light is in shadow). The colour is
+// the albedo image's (`albedo`) at the hit, filtered over its mips, or a checker.
 //
 // The marchers are those of include/dispmap/meso/march.h, bit for bit on lavapipe: the
 // per-pixel rays come back (rayOrigin, rayDir), and marchMeso<float> on them gives the same
@@ -49,8 +50,13 @@ struct MesoRenderOptions {
     double planeHalfSize = 1.0; ///< the plane spans [-h, h]^2
     int quads = 4;             ///< quads per side of the plane
     /// The base mesh instead of the plane (tileSize, planeHalfSize and quads then unused: its
-    /// texture coordinates place the tiles). At most kMaxFrameCorners corners.
+    /// texture coordinates place the tiles). At most kMaxFrameCorners corners (frame_mesh.h),
+    /// each frame solvable (frameIndependence >= kMinFrameIndependence, a unit normal) and
+    /// its texture coordinates within kMaxFrameVoxel voxels of the origin.
     std::shared_ptr<const FrameMesh> base;
+    /// The colour (meso/albedo.h: over one tile, with or without mips), sampled at the hit
+    /// trilinearly at the pixel footprint's level; none: the checker below.
+    std::shared_ptr<const MesoAlbedo> albedo;
     double ambient = 0.2;
     glm::dvec3 background{0.12, 0.13, 0.16};
     double checkerVoxels = 8;  ///< checker period of the albedo, voxels (0: no checker)
@@ -63,7 +69,7 @@ struct MesoImage {
     std::vector<std::uint8_t> rgba;          ///< 8-bit colour, row 0 at the top
     std::vector<std::uint32_t> iterations;   ///< view-ray iterations per pixel (0: background)
     std::vector<std::uint32_t> shadowIterations;
-    std::vector<std::uint8_t> covered;       ///< 1 where the base covers the pixel (a base mesh: where a ray was marched and no hit lies in front)
+    std::vector<std::uint8_t> covered;       ///< 1 where the base covers the pixel (a base mesh: back faces and misses too, which write the far plane)
     std::vector<std::uint8_t> hit;           ///< 1 where the view ray hit (0: missed, or background)
     std::vector<std::uint8_t> shadowed;      ///< 1 where the shadow ray hit the mesostructure (or the base turns away from the light)
     std::vector<glm::vec4> hitPoint;         ///< voxel-space hit point and t
@@ -72,8 +78,10 @@ struct MesoImage {
     int frames = 0;
 };
 
-/// Largest base mesh (corners, three a triangle): 2^24, 256 MiB on the GPU (64 bytes a corner).
-inline constexpr std::size_t kMaxFrameCorners = std::size_t{1} << 24;
+/// Largest voxel coordinate a base mesh's texture coordinates may reach (|s| W, |t| H): 2^16,
+/// where float still resolves 1/128 voxel (buildFrameMesh keeps every triangle's coordinates
+/// within a few tiles of the origin).
+inline constexpr double kMaxFrameVoxel = 65536.0;
 
 /// The voxels per unit of the options' mapping for `maps`: on the plane (W / tileSize,
 /// H / tileSize, L / depth) per world unit; on a base mesh (W, H, L / depth), voxels per
@@ -87,7 +95,7 @@ class MesoRenderer {
     /// warm-up < 0, a bad technique (iterations or linear steps < 1), a camera at or below the
     /// plane, non-positive tile size / depth / plane, shadows without shadow cones or with a
     /// light at or below the horizon (the plane's rules); an empty or too large base mesh, or
-    /// one with values that are not finite.
+    /// one with values that are not finite; an albedo whose words do not hold its levels.
     MesoRenderer(Context& context, const MesoMaps& maps, const MesoRenderOptions& options);
     ~MesoRenderer();
     MesoRenderer(const MesoRenderer&) = delete;

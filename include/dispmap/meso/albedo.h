@@ -1,0 +1,96 @@
+#pragma once
+// MesoAlbedo: the colour of a mesostructure, an RGBA8 image over one tile (it repeats with the
+// height field: at texture coordinate (s, t) in tiles, the image's texel (s w, t h) with w x h
+// its size, wrapping; texel (x, y) sits on the height field's sample (x W / w, y H / h), so a
+// colour image of the height image's size colours each height sample with its own pixel),
+// with box-filtered mip levels for the footprint of a pixel. Sampled by
+// kern::dmMesoAlbedo (kernels/meso_march.h) on the CPU (sampleMesoAlbedo) and in the
+// MesoRenderer's fragment shader, from one array of 32-bit words:
+//   word 0                  the level count n
+//   words 1 + 4 l .. +3     level l: offset of its first texel word, width, height, 0
+//   then the texels         level by level, rows from y = 0, x fastest; one RGBA8 texel a word,
+//                           red in the lowest byte (kern::dmUnpackRgba8)
+// Level l + 1 is the 2 x 2 box average of level l (rounded to nearest), floor(w / 2) x
+// floor(h / 2) texels (at least 1: an odd last row or column is dropped), down to 1 x 1.
+#include <algorithm>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "dispmap/core/error.h"
+
+namespace dispmap {
+
+/// Largest side of an albedo image (texels): a 4096^2 image and its levels take 85 MiB.
+inline constexpr int kMaxMesoAlbedoSize = 4096;
+
+struct MesoAlbedo {
+    std::vector<std::uint32_t> words; ///< the layout of the header
+
+    int levels() const { return words.empty() ? 0 : static_cast<int>(words[0]); }
+    int width(int level = 0) const { return static_cast<int>(words[static_cast<std::size_t>(2 + 4 * level)]); }
+    int height(int level = 0) const { return static_cast<int>(words[static_cast<std::size_t>(3 + 4 * level)]); }
+    /// Texel (x, y) of a level (in range), packed.
+    std::uint32_t texel(int level, int x, int y) const {
+        return words[words[static_cast<std::size_t>(1 + 4 * level)] + static_cast<std::size_t>(y) * static_cast<std::size_t>(width(level)) +
+                     static_cast<std::size_t>(x)];
+    }
+    std::size_t bytes() const { return 4 * words.size(); }
+};
+
+/// The albedo of a width x height RGBA8 image (rows from the top of the image, which is t = 0:
+/// the rows of a height image, io/png.h), with `mips` levels below it or none. ArgumentError
+/// for a size outside 1..kMaxMesoAlbedoSize or too few bytes.
+inline MesoAlbedo mesoAlbedo(int width, int height, const std::vector<std::uint8_t>& rgba, bool mips = true) {
+    if (width < 1 || height < 1 || width > kMaxMesoAlbedoSize || height > kMaxMesoAlbedoSize)
+        throw ArgumentError("mesostructure albedo: image size " + std::to_string(width) + " x " + std::to_string(height) +
+                            " out of range (1 .. " + std::to_string(kMaxMesoAlbedoSize) + ")");
+    const std::size_t n = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
+    if (rgba.size() < 4 * n)
+        throw ArgumentError("mesostructure albedo: " + std::to_string(rgba.size()) + " bytes for " + std::to_string(width) + " x " +
+                            std::to_string(height) + " RGBA texels");
+    std::vector<glm::ivec2> sizes{{width, height}};
+    while (mips && (sizes.back().x > 1 || sizes.back().y > 1)) sizes.push_back(glm::max(sizes.back() / 2, glm::ivec2(1)));
+    MesoAlbedo a;
+    std::size_t total = 1 + 4 * sizes.size();
+    for (const glm::ivec2 s : sizes) total += static_cast<std::size_t>(s.x) * static_cast<std::size_t>(s.y);
+    a.words.assign(total, 0u);
+    a.words[0] = static_cast<std::uint32_t>(sizes.size());
+    std::size_t at = 1 + 4 * sizes.size();
+    for (std::size_t l = 0; l < sizes.size(); ++l) {
+        a.words[1 + 4 * l] = static_cast<std::uint32_t>(at);
+        a.words[2 + 4 * l] = static_cast<std::uint32_t>(sizes[l].x);
+        a.words[3 + 4 * l] = static_cast<std::uint32_t>(sizes[l].y);
+        at += static_cast<std::size_t>(sizes[l].x) * static_cast<std::size_t>(sizes[l].y);
+    }
+    const auto put = [&](int level, int x, int y, const unsigned c[4]) {
+        a.words[a.words[static_cast<std::size_t>(1 + 4 * level)] + static_cast<std::size_t>(y) * static_cast<std::size_t>(sizes[static_cast<std::size_t>(level)].x) +
+                static_cast<std::size_t>(x)] = c[0] | (c[1] << 8) | (c[2] << 16) | (c[3] << 24);
+    };
+    for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x) {
+            const std::size_t i = 4 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x));
+            const unsigned c[4] = {rgba[i], rgba[i + 1], rgba[i + 2], rgba[i + 3]};
+            put(0, x, y, c);
+        }
+    for (int l = 1; l < static_cast<int>(sizes.size()); ++l) {
+        const glm::ivec2 s = sizes[static_cast<std::size_t>(l)], p = sizes[static_cast<std::size_t>(l - 1)];
+        for (int y = 0; y < s.y; ++y)
+            for (int x = 0; x < s.x; ++x) {
+                unsigned c[4] = {0, 0, 0, 0};
+                // The 2 x 2 parents (a parent side of 1 is counted twice).
+                for (int dy = 0; dy < 2; ++dy)
+                    for (int dx = 0; dx < 2; ++dx) {
+                        const std::uint32_t w = a.texel(l - 1, std::min(2 * x + dx, p.x - 1), std::min(2 * y + dy, p.y - 1));
+                        for (int k = 0; k < 4; ++k) c[k] += (w >> (8 * k)) & 255u;
+                    }
+                for (unsigned& v : c) v = (v + 2) / 4;
+                put(l, x, y, c);
+            }
+    }
+    return a;
+}
+
+} // namespace dispmap

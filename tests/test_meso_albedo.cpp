@@ -1,0 +1,117 @@
+// The mesostructure's albedo (meso/albedo.h, kern::dmMesoAlbedo): the word layout, the box
+// mips, bilinear and trilinear sampling against closed forms, float against double, the
+// footprint's level, bad inputs, and the scene's "albedo" and "mips" keys.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <random>
+
+#include "dispmap/io/png.h"
+#include "dispmap/meso/march.h"
+#include "dispmap/scene/meso.h"
+#include "test_files.h"
+#include "test_support.h"
+
+namespace meso_albedo_test {
+namespace {
+using namespace dispmap;
+using Catch::Contains;
+
+// A w x h image whose red is 255 on odd x, green 10 y + x, blue 7, alpha 255.
+std::vector<std::uint8_t> pattern(int w, int h) {
+    std::vector<std::uint8_t> px(4 * static_cast<std::size_t>(w) * static_cast<std::size_t>(h));
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const std::size_t i = 4 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x));
+            px[i] = x % 2 ? 255 : 0;
+            px[i + 1] = static_cast<std::uint8_t>((10 * y + x) % 256);
+            px[i + 2] = 7;
+            px[i + 3] = 255;
+        }
+    return px;
+}
+
+TEST_CASE("albedo mips are box averages down to one texel", "[meso][albedo]") {
+    const MesoAlbedo a = mesoAlbedo(8, 4, pattern(8, 4));
+    REQUIRE(a.levels() == 4); // 8 x 4, 4 x 2, 2 x 1, 1 x 1
+    CHECK((a.width(1) == 4 && a.height(1) == 2 && a.width(2) == 2 && a.height(2) == 1 && a.width(3) == 1 && a.height(3) == 1));
+    CHECK(a.words.size() == 1 + 4 * 4 + 32 + 8 + 2 + 1);
+    // Level 1 texel (1, 0): level-0 texels x 2..3, y 0..1: red (0 + 255 + 0 + 255) / 4 rounded,
+    // green (2 + 3 + 12 + 13) / 4 = 7.5, rounded half up to 8.
+    const std::uint32_t t = a.texel(1, 1, 0);
+    CHECK((t & 255u) == 128u);
+    CHECK(((t >> 8) & 255u) == 8u);
+    CHECK(((t >> 16) & 255u) == 7u);
+    CHECK(a.levels() == 4);
+    // Without mips: level 0 only.
+    CHECK(mesoAlbedo(8, 4, pattern(8, 4), false).levels() == 1);
+    // Odd sizes: the last row / column dropped, at least one texel.
+    const MesoAlbedo odd = mesoAlbedo(5, 1, pattern(5, 1));
+    CHECK((odd.levels() == 3 && odd.width(1) == 2 && odd.height(1) == 1 && odd.width(2) == 1));
+}
+
+TEST_CASE("albedo sampling: bilinear between texels, wrapping, trilinear between levels", "[meso][albedo]") {
+    const MesoAlbedo a = mesoAlbedo(4, 4, pattern(4, 4));
+    const auto at = [&](double s, double t, double lod) { return glm::dvec4(sampleMesoAlbedo<double>(a, {s, t}, lod)) * 255.0; };
+    // Texel (x, y) sits at (x / 4, y / 4): exactly its own colour there.
+    CHECK(at(0.25, 0.5, 0).x == 255.0);
+    CHECK(at(0.25, 0.5, 0).y == 21.0);
+    // Half way between texels 1 and 2 of row 0: the mean.
+    CHECK(at(0.375, 0.0, 0).x == Approx(127.5));
+    CHECK(at(0.375, 0.0, 0).y == Approx(1.5));
+    // Wrapping: a whole number of tiles away, negative too, the same colour; between the last
+    // texel and the first across the seam, their mean.
+    CHECK(at(-6.75, 5.5, 0) == at(0.25, 0.5, 0));
+    CHECK(at(0.875, 0.0, 0).y == Approx(1.5)); // texels 3 (green 3) and 0 (green 0)
+    // The coarsest level is the mean of everything (rounded per level), whatever the point;
+    // levels beyond the pyramid clamp to it; a fraction mixes two levels.
+    CHECK(at(0.3, 0.7, 2.0) == at(0.9, 0.1, 7.5));
+    const glm::dvec4 mix = at(0.25, 0.5, 0.25);
+    CHECK(glm::length(mix - (0.75 * at(0.25, 0.5, 0) + 0.25 * at(0.25, 0.5, 1))) < 1e-9);
+    // Float against double: the same operations, float rounding of values up to 1.
+    std::mt19937 g(3);
+    std::uniform_real_distribution<double> u(-3.0, 3.0);
+    double worst = 0;
+    for (int i = 0; i < 1000; ++i) {
+        const glm::dvec2 p(u(g), u(g));
+        const double lod = std::abs(u(g));
+        worst = std::max(worst, glm::length(glm::dvec4(sampleMesoAlbedo<float>(a, p, lod)) - glm::dvec4(sampleMesoAlbedo<double>(a, p, lod))));
+    }
+    CHECK(worst < 1e-5); // a few float ULP of O(1) values through two lerps
+}
+
+TEST_CASE("the albedo's level follows the pixel's footprint", "[meso][albedo]") {
+    const glm::dvec2 size(256, 128);
+    CHECK(kern::dmMesoAlbedoLod(glm::dvec2(1.0 / 256, 0), glm::dvec2(0, 1.0 / 128), size) == 0.0); // a texel a pixel
+    CHECK(kern::dmMesoAlbedoLod(glm::dvec2(4.0 / 256, 0), glm::dvec2(0, 1.0 / 128), size) == Approx(2.0)); // 4 texels in x
+    CHECK(kern::dmMesoAlbedoLod(glm::dvec2(0.1 / 256, 0), glm::dvec2(0, 0.1 / 128), size) == 0.0);  // magnified: level 0
+}
+
+TEST_CASE("bad albedos are clear errors", "[meso][albedo][inputs]") {
+    CHECK_THROWS_WITH(mesoAlbedo(0, 4, {}), Contains("image size 0 x 4 out of range"));
+    CHECK_THROWS_WITH(mesoAlbedo(4097, 1, std::vector<std::uint8_t>(4 * 4097)), Contains("out of range (1 .. 4096)"));
+    CHECK_THROWS_WITH(mesoAlbedo(4, 4, std::vector<std::uint8_t>(63)), Contains("63 bytes for 4 x 4 RGBA texels"));
+    CHECK_THROWS_WITH(sampleMesoAlbedo<float>(MesoAlbedo{}, {0, 0}, 0), Contains("the albedo is empty"));
+    const MesoAlbedo a = mesoAlbedo(2, 2, pattern(2, 2));
+    CHECK_THROWS_WITH(sampleMesoAlbedo<float>(a, {std::nan(""), 0}, 0), Contains("not finite"));
+}
+
+TEST_CASE("a mesostructure scene's albedo", "[meso][albedo][scene]") {
+    dmtest::TempDir dir("dispmap_albedo_");
+    const std::vector<std::uint8_t> px = pattern(16, 8);
+    writeRgbaPng((dir.path / "c.png").string(), 16, 8, px.data());
+    const auto scene = [&](const std::string& json) { return parseMesoScene(nlohmann::json::parse(json), "a.json", dir.path.string()); };
+    const MesoSceneDesc s = scene(R"({"mesostructure": {"albedo": "c.png"}})");
+    const auto a = buildMesoSceneAlbedo(s);
+    REQUIRE(a);
+    CHECK((a->width() == 16 && a->height() == 8 && a->levels() == 5));
+    CHECK(buildMesoSceneAlbedo(scene(R"({"mesostructure": {"albedo": "c.png"}, "effects": {"mips": false}})"))->levels() == 1);
+    CHECK_FALSE(buildMesoSceneAlbedo(scene(R"({"mesostructure": {}})")));
+    CHECK_THROWS_WITH(scene(R"({"mesostructure": {"albedo": 3}})"), Contains("'mesostructure.albedo' must be a file name"));
+    CHECK_THROWS_WITH(scene(R"({"mesostructure": {"albedo": ""}})"), Contains("'mesostructure.albedo' is empty"));
+    CHECK_THROWS_WITH(scene(R"({"mesostructure": {}, "effects": {"mips": 1}})"), Contains("'effects.mips' must be true or false"));
+    CHECK_THROWS_AS(buildMesoSceneAlbedo(scene(R"({"mesostructure": {"albedo": "missing.png"}})")), FileError);
+}
+
+} // namespace
+} // namespace meso_albedo_test
