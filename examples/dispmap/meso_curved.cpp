@@ -27,6 +27,7 @@
 #include "dispmap/vulkan/context.h"
 #include "dispmap/vulkan/meso_renderer.h"
 #include "meso.h"
+#include "render.h"
 
 namespace dispmap::figures {
 namespace {
@@ -142,13 +143,7 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
         const auto t0 = std::chrono::steady_clock::now();
         const std::shared_ptr<const FrameMesh> base = buildMesoSceneBase(s);
         const double baseS = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        vulkan::MesoRenderOptions o;
-        o.width = s.width;
-        o.height = s.height;
-        o.technique = s.technique;
-        o.shadows = s.shadows;
-        o.lightDirection = s.light;
-        o.depth = s.slab;
+        vulkan::MesoRenderOptions o = mesoSceneRenderOptions(s);
         o.frames = args.gpuFrames;
         const auto stats = [&](const vulkan::MesoImage& im) {
             double it = 0, sit = 0;
@@ -167,17 +162,15 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
         out << "\nThe renderer (" << ctx.deviceName() << ", " << o.width << " x " << o.height << ", DDM 4x1 + quadrics, shadows, median of "
             << o.frames << " frames; covered: pixels the base covers, back faces included; iterations over them):\n\n"
             << "| base | GPU time | pixels covered | view iterations (mean) | shadow iterations (mean) |\n|---|---|---|---|---|\n";
+        // The plane beside it: the bricks scene's camera and light, the default checker.
         vulkan::MesoRenderOptions plane = o;
+        plane.camera = vulkan::MesoCamera{};
         plane.camera.eye = {0.3, -1.1, 0.6};
         plane.lightDirection = {0.5, 0.2, 0.6};
         plane.depth = 0.05;
+        plane.checkerVoxels = vulkan::MesoRenderOptions{}.checkerVoxels;
         out << "| the plane, tile 0.5 | " << stats(vulkan::renderMeso(ctx, m, plane)) << " |\n";
         o.base = base;
-        o.camera.eye = s.eye;
-        o.camera.target = s.target;
-        o.camera.up = s.up;
-        o.camera.fovYDeg = s.fov;
-        o.checkerVoxels = s.checker;
         out << "| Spot (" << base->triangleCount() << " triangles, built in " << std::fixed << std::setprecision(2) << baseS << " s) | "
             << stats(vulkan::renderMeso(ctx, m, o)) << " |\n";
     } catch (const Error& e) {

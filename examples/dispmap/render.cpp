@@ -38,27 +38,32 @@ void writePng(const vulkan::RenderedImage& im, const std::string& path) {
 
 } // namespace
 
-namespace {
-// A mesostructure scene (meso_scene.h): the maps its effects need, the fragment-shader marcher.
-int renderMesoCommand(const RenderArgs& a, const nlohmann::json& j) {
-    const MesoSceneDesc s = parseMesoScene(j, a.scene, std::filesystem::path(a.scene).parent_path().string());
-    const MesoMaps maps = buildMesoSceneMaps(s);
-    auto ctx = makeContext(a.device, a.validation);
+vulkan::MesoRenderOptions mesoSceneRenderOptions(const MesoSceneDesc& s) {
     vulkan::MesoRenderOptions o;
-    o.base = buildMesoSceneBase(s);
-    o.camera.up = s.up;
-    o.checkerVoxels = s.checker;
-    o.albedo = buildMesoSceneAlbedo(s);
     o.width = s.width;
     o.height = s.height;
     o.camera.eye = s.eye;
     o.camera.target = s.target;
+    o.camera.up = s.up;
     o.camera.fovYDeg = s.fov;
     o.lightDirection = s.light;
     o.technique = s.technique;
     o.shadows = s.shadows;
     o.tileSize = s.tile;
     o.depth = s.slab;
+    o.checkerVoxels = s.checker;
+    return o;
+}
+
+namespace {
+// A mesostructure scene (meso_scene.h): the maps its effects need, the fragment-shader marcher.
+int renderMesoCommand(const RenderArgs& a, const nlohmann::json& j) {
+    const MesoSceneDesc s = parseMesoScene(j, a.scene, std::filesystem::path(a.scene).parent_path().string());
+    const MesoMaps maps = buildMesoSceneMaps(s);
+    auto ctx = makeContext(a.device, a.validation);
+    vulkan::MesoRenderOptions o = mesoSceneRenderOptions(s);
+    o.base = buildMesoSceneBase(s);
+    o.albedo = buildMesoSceneAlbedo(s);
     o.frames = a.frames;
     const vulkan::MesoImage im = vulkan::renderMeso(*ctx, maps, o);
     if (!a.output.empty()) writeRgbaPng(a.output, im.width, im.height, im.rgba.data());

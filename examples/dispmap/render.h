@@ -5,6 +5,13 @@
 #include <ostream>
 #include <string>
 
+namespace dispmap {
+struct MesoSceneDesc;
+namespace vulkan {
+struct MesoRenderOptions;
+}
+} // namespace dispmap
+
 namespace dispmap::figures {
 
 /// Most timed frames of `dispmap render` (each is drawn in full: against typos).
@@ -27,6 +34,11 @@ struct RenderArgs {
     std::string device;       ///< Vulkan device (index or name substring); empty: lavapipe
     bool validation = false;
 };
+/// The mesostructure renderer's options a scene states (scene/meso.h): image size, camera,
+/// light, technique, shadows, tile, slab and checker; its base and albedo are built apart
+/// (buildMesoSceneBase, buildMesoSceneAlbedo), frames are the caller's.
+vulkan::MesoRenderOptions mesoSceneRenderOptions(const MesoSceneDesc& scene);
+
 /// Renders one scene headless, writes the PNG, prints GPU time, patches and triangles.
 /// Returns the exit status (1 if the validation layer spoke).
 int renderCommand(const RenderArgs& args);

@@ -117,16 +117,14 @@ void main() {
             lit = 0.0; // the base surface turns away from the light: its own shape shadows the point
         }
     }
+    vec3 albedo;
     if (kAlbedo) {
         float lod = dmMesoAlbedoLod(uvDx, uvDy, vec2(float(dmMesoFetchAlbedo(s, 2)), float(dmMesoFetchAlbedo(s, 3))));
-        vec4 a = dmMesoAlbedo(s, vec2(p.x / float(s.width), p.y / float(s.height)), lod);
-        float v = dmMesoShade(1.0, n, params.light.xyz, params.light.w, lit);
-        outColor = vec4(a.rgb * v, 1.0);
+        albedo = dmMesoAlbedo(s, vec2(p.x / float(s.width), p.y / float(s.height)), lod).rgb;
     } else {
-        float albedo = dmMesoChecker(vec2(p.x, p.y), params.voxelsPerUnit.w);
-        float v = dmMesoShade(albedo, n, params.light.xyz, params.light.w, lit);
-        outColor = vec4(v * 0.95, v * 0.85, v * 0.7, 1.0);
+        albedo = dmMesoChecker(vec2(p.x, p.y), params.voxelsPerUnit.w) * vec3(0.95, 0.85, 0.7);
     }
+    outColor = vec4(albedo * dmMesoShade(1.0, n, params.light.xyz, params.light.w, lit), 1.0);
     outHit = vec4(p, h.t);
     outCounts = uvec4(uint(h.iterations), shadowIterations, lit == 0.0 ? 1u : 0u, 1u);
 }
