@@ -99,6 +99,51 @@ TEST_CASE("directional distances never exceed the distance along any ray from th
     }
 }
 
+TEST_CASE("the DDM's search skips only boxes that cannot improve a cone", "[meso][ddm]") {
+    // buildDdm searches the columns in a quadtree of blocks, starts each voxel from the boxes
+    // that set its neighbour's bests and asks a box only of the cones it may still improve.
+    // None of that may change a value: every voxel's map equals, bit for bit, the minimum over
+    // every sub-box of every column in reach (the cap's ring and one more), each offered to
+    // every cone in a plain loop.
+    const MesoHeightField hf = dmtest::hardField(12, 12, 8);
+    const int S = 2; // buildDdm's default sub-cells
+    for (ConeSet cones : {ConeSet{8, 2, false, false}, ConeSet{4, 2, true, false}, ConeSet{2, 1, false, false}, ConeSet::all()}) {
+        const DirectionalDistanceMap m = buildDdm(hf, cones);
+        std::vector<detail::ConeTest> tests;
+        for (int c = 0; c < cones.count(); ++c) tests.push_back(detail::coneTest(cones, c));
+        detail::ConeSearch search(tests);
+        const double bottom = -4.0 * hf.layers - 1.0;
+        const int reach = static_cast<int>(std::ceil(m.cap)) + 1;
+        int differ = 0, searched = 0;
+        for (int k = 0; k < hf.layers; ++k)
+            for (int j = 0; j < hf.height; ++j)
+                for (int i = 0; i < hf.width; ++i) {
+                    const glm::dvec4 h(hf.cell(i, j));
+                    if (k + 1 <= std::min(std::min(h.x, h.y), std::min(h.z, h.w))) continue; // inside the solid: 0
+                    ++searched;
+                    search.reset(m.cap);
+                    for (int cj = j - reach; cj <= j + reach; ++cj)
+                        for (int ci = i - reach; ci <= i + reach; ++ci) {
+                            const glm::dvec4 hc(hf.cell(ci, cj));
+                            for (int b = 0; b < S; ++b)
+                                for (int a = 0; a < S; ++a) {
+                                    const double x0 = double(a) / S, x1 = double(a + 1) / S, y0 = double(b) / S, y1 = double(b + 1) / S;
+                                    const auto H = [&](double x, double y) { return kern::dmBilerp(hc, glm::dvec2(x, y)); };
+                                    const double top = std::max(std::max(H(x0, y0), H(x1, y0)), std::max(H(x1, y1), H(x0, y1)));
+                                    const double bx = ci + x0, by = cj + y0;
+                                    search.offer({{bx - (i + 1.0), by - (j + 1.0), bottom - (k + 1.0)}, {bx + 1.0 / S - i, by + 1.0 / S - j, top - k}},
+                                                 search.allCones());
+                                }
+                        }
+                    for (int c = 0; c < cones.count(); ++c)
+                        differ += m.at(c, i, j, k) != detail::floatBelow(search.best[static_cast<std::size_t>(c)]);
+                }
+        INFO(cones.name() << ": " << searched << " voxels searched");
+        CHECK(searched > 500);
+        CHECK(differ == 0);
+    }
+}
+
 TEST_CASE("directional distances bound the part of each box a cone reaches", "[meso][ddm]") {
     // A flat floor at height 2: from a voxel g = k - 2 above it, rays of the steep band (45 to
     // 90 degrees down) meet the floor after g at least, rays of the shallow band (0 to 45
@@ -366,6 +411,9 @@ TEST_CASE("bad inputs are clear errors", "[meso][errors]") {
     const MesoHeightField hf = mesoField(4, 4, 4, [](int, int) { return 1.0; });
     CHECK_THROWS_WITH(buildDdm(hf, ConeSet{0, 1, false, false}), Catch::Contains("zero cones"));
     CHECK_THROWS_WITH(buildDdm(hf, ConeSet{3, 1, false, false}), Catch::Contains("not supported"));
+    CHECK_THROWS_WITH(buildDdm(hf, ConeSet::all(), 2, 1e6f), Catch::Contains("cap"));
+    CHECK_THROWS_WITH(buildDdm(hf, ConeSet::all(), 2, std::numeric_limits<float>::quiet_NaN()), Catch::Contains("cap"));
+    CHECK_THROWS_WITH(buildDdm(hf, ConeSet::all(), 2, -1.0f), Catch::Contains("cap"));
     struct Img {
         int width = 0, height = 0;
         std::vector<float> values;

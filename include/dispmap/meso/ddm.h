@@ -87,27 +87,40 @@ inline bool onArc(const glm::dvec2& a, double la, const glm::dvec2& b, double lb
 // What the cone test needs of a box D (not containing 0), computed once and then tested
 // against every cone: its nearest and farthest horizontal distances, and its azimuth arc
 // from its clockwise-most corner p to its counter-clockwise-most q (less than half a turn:
-// the box does not contain the axis), with their lengths.
+// the box does not contain the axis), with their lengths. The arc is computed when first
+// asked for (a box the elevation tests reject never needs it).
 struct BoxShape {
     glm::dvec3 lo, hi;
     double rhoMin = 0, rhoMax = 0;
-    glm::dvec2 p{0}, q{0};
-    double lp = 0, lq = 0;
     explicit BoxShape(const Box& D) : lo(D.lo), hi(D.hi) {
         const double cx = std::clamp(0.0, D.lo.x, D.hi.x), cy = std::clamp(0.0, D.lo.y, D.hi.y);
         rhoMin = std::sqrt(cx * cx + cy * cy);
         const double mx = std::max(std::abs(D.lo.x), std::abs(D.hi.x)), my = std::max(std::abs(D.lo.y), std::abs(D.hi.y));
         rhoMax = std::sqrt(mx * mx + my * my);
-        if (rhoMin == 0) return; // the arc is never read
-        const glm::dvec2 corner[4] = {{D.lo.x, D.lo.y}, {D.hi.x, D.lo.y}, {D.hi.x, D.hi.y}, {D.lo.x, D.hi.y}};
-        p = q = corner[0];
-        for (int i = 1; i < 4; ++i) {
-            if (cross2(p, corner[i]) < 0) p = corner[i];
-            if (cross2(q, corner[i]) > 0) q = corner[i];
-        }
-        lp = glm::length(p);
-        lq = glm::length(q);
     }
+    struct Arc {
+        glm::dvec2 p{0}, q{0};
+        double lp = 0, lq = 0;
+    };
+    // Only for a box off the axis (rhoMin > 0).
+    const Arc& arc() const {
+        if (!arcKnown_) {
+            const glm::dvec2 corner[4] = {{lo.x, lo.y}, {hi.x, lo.y}, {hi.x, hi.y}, {lo.x, hi.y}};
+            arc_.p = arc_.q = corner[0];
+            for (int i = 1; i < 4; ++i) {
+                if (cross2(arc_.p, corner[i]) < 0) arc_.p = corner[i];
+                if (cross2(arc_.q, corner[i]) > 0) arc_.q = corner[i];
+            }
+            arc_.lp = glm::length(arc_.p);
+            arc_.lq = glm::length(arc_.q);
+            arcKnown_ = true;
+        }
+        return arc_;
+    }
+
+  private:
+    mutable Arc arc_;
+    mutable bool arcKnown_ = false;
 };
 // Whether some direction x / |x|, x in the box, can lie in the cone: the box's elevation
 // interval (from the nearest and farthest horizontal distances) overlaps the cone's band, and
@@ -128,7 +141,8 @@ inline bool boxMeetsCone(const BoxShape& D, const ConeTest& cone) {
     }
     if (D.rhoMin == 0 || cone.allAzimuths) return true;
     // Two arcs of at most half a turn each meet iff one holds the other's start.
-    return onArc(cone.a0, cone.la0, cone.a1, cone.la1, D.p, D.lp) || onArc(D.p, D.lp, D.q, D.lq, cone.a0, cone.la0);
+    const BoxShape::Arc& a = D.arc();
+    return onArc(cone.a0, cone.la0, cone.a1, cone.la1, a.p, a.lp) || onArc(a.p, a.lp, a.q, a.lq, cone.a0, cone.la0);
 }
 inline bool boxMeetsCone(const Box& D, const ConeTest& cone) { return boxMeetsCone(BoxShape(D), cone); }
 inline double boxDistance(const Box& D) {
@@ -198,22 +212,33 @@ struct ConeSearch {
     int count() const { return static_cast<int>(tests.size()); }
     void reset(double cap) {
         best.fill(cap);
+        from.fill(kNone);
         worst = cap;
     }
-    // The cones (a bit mask) that the box, at distance `dist`, may still improve.
-    std::uint32_t open(const Box& box, double dist) const {
-        std::uint32_t mask = 0;
-        if (dist >= worst) return mask;
+    // The cones of `among` (a bit mask; all by default) that the box, at distance `dist`, may
+    // still improve. A box holding another may be asked first: what it cannot improve, no box
+    // inside it can (its distance, cone test and bound are no larger).
+    std::uint32_t open(const Box& box, double dist, std::uint32_t among = ~0u) const {
+        std::uint32_t near = 0; // the cones of `among` the box is near enough to improve
+        if (dist >= worst) return near;
+        for (std::uint32_t m = among & allCones(); m != 0; m &= m - 1)
+            if (const int c = std::countr_zero(m); dist < best[static_cast<std::size_t>(c)]) near |= 1u << c;
+        if (near == 0) return near;
         const BoxShape shape(box);
         SectorCache rho;
-        for (int c = 0; c < count(); ++c)
-            if (dist < best[static_cast<std::size_t>(c)] && boxMeetsCone(shape, tests[static_cast<std::size_t>(c)]) &&
-                bound(shape, c, dist, rho) < best[static_cast<std::size_t>(c)])
+        std::uint32_t mask = 0;
+        for (std::uint32_t m = near; m != 0; m &= m - 1)
+            if (const int c = std::countr_zero(m); boxMeetsCone(shape, tests[static_cast<std::size_t>(c)]) &&
+                                                    bound(shape, c, dist, rho) < best[static_cast<std::size_t>(c)])
                 mask |= 1u << c;
         return mask;
     }
-    // Offers a box inside an open one to the cones of `mask`.
-    void offer(const Box& box, std::uint32_t mask) {
+    std::uint32_t allCones() const { return count() >= 32 ? ~0u : (1u << count()) - 1u; }
+    // Offers a box inside an open one to the cones of `mask`; `id` names the box to the caller:
+    // from[c] is the id of the box that set best[c] (kNone while best[c] is the cap).
+    static constexpr std::uint64_t kNone = ~std::uint64_t{0};
+    std::array<std::uint64_t, kMaxCones> from{};
+    void offer(const Box& box, std::uint32_t mask, std::uint64_t id = kNone) {
         const double dist = boxDistance(box);
         std::uint32_t rest = 0; // the cones of `mask` the box is near enough to improve
         for (std::uint32_t m = mask; m != 0; m &= m - 1)
@@ -224,7 +249,10 @@ struct ConeSearch {
         for (; rest != 0; rest &= rest - 1) {
             const int c = std::countr_zero(rest);
             if (!boxMeetsCone(shape, tests[static_cast<std::size_t>(c)])) continue;
-            best[static_cast<std::size_t>(c)] = std::min(best[static_cast<std::size_t>(c)], bound(shape, c, dist, rho));
+            if (const double b = bound(shape, c, dist, rho); b < best[static_cast<std::size_t>(c)]) {
+                best[static_cast<std::size_t>(c)] = b;
+                from[static_cast<std::size_t>(c)] = id;
+            }
         }
     }
     void settle() { worst = *std::max_element(best.begin(), best.begin() + count()); }
@@ -255,6 +283,10 @@ struct ConeSearch {
 };
 } // namespace detail
 
+/// The largest cap a map accepts (voxels): far beyond any slab's depth, and it keeps the
+/// search's column indices in range.
+inline constexpr float kMaxDdmCap = 65536.0f;
+
 /// Builds the conservative DDM of a height field. The solid of column (i, j) lies inside the
 /// boxes of its `subcells` x `subcells` sub-rectangles, each from -Inf up to the largest
 /// height of the bilinear patch over it (at one of its corners); for each voxel V and cone C
@@ -269,7 +301,8 @@ inline DirectionalDistanceMap buildDdm(const MesoHeightField& hf, const ConeSet&
     checkThreads(threads, "directional distance map");
     cones.validate();
     if (subcells < 1 || subcells > 8) throw ArgumentError("directional distance map: subcells " + std::to_string(subcells) + " not in 1..8");
-    if (!(cap >= 0) || !std::isfinite(cap)) throw ArgumentError("directional distance map: cap must be finite and >= 0");
+    if (!(cap >= 0) || !(cap <= kMaxDdmCap))
+        throw ArgumentError("directional distance map: cap " + std::to_string(cap) + " not in [0, " + std::to_string(kMaxDdmCap) + "]");
     DirectionalDistanceMap m;
     m.width = hf.width;
     m.height = hf.height;
@@ -299,57 +332,121 @@ inline DirectionalDistanceMap buildDdm(const MesoHeightField& hf, const ConeSet&
             cellMin[static_cast<std::size_t>(j * hf.width + i)] = std::min(std::min(h.x, h.y), std::min(h.z, h.w));
         }
     const double bottom = -4.0 * hf.layers - 1.0;
+    std::array<double, 8> subStart{}; // a / S
+    for (int a = 0; a < S; ++a) subStart[static_cast<std::size_t>(a)] = double(a) / S;
+    const double subSide = 1.0 / S;
     const int C = cones.count();
     std::vector<detail::ConeTest> tests;
     for (int c = 0; c < C; ++c) tests.push_back(detail::coneTest(cones, c));
+    // The columns are searched in a quadtree of blocks: a block's box (its columns' union, up to
+    // their highest top) is asked which cones any of its columns could improve; only those
+    // cones are asked of its four quarters, and so on down to the columns. tops[l] holds the
+    // highest top of the 2^l x 2^l block whose first column is (i, j), wrapped (tops[0] is
+    // cellTop).
+    constexpr int kLevels = 2, kTop = 1 << kLevels, kHalf = kTop / 2;
+    std::vector<std::vector<double>> tops{cellTop};
+    for (int l = 0; l < kLevels; ++l) {
+        const std::vector<double>& t = tops.back();
+        const int e = 1 << l;
+        std::vector<double> next(t.size());
+        for (int j = 0; j < hf.height; ++j)
+            for (int i = 0; i < hf.width; ++i) {
+                const int i1 = detail::wrapIndex(i + e, hf.width), j1 = detail::wrapIndex(j + e, hf.height);
+                next[static_cast<std::size_t>(j * hf.width + i)] =
+                    std::max(std::max(t[static_cast<std::size_t>(j * hf.width + i)], t[static_cast<std::size_t>(j * hf.width + i1)]),
+                             std::max(t[static_cast<std::size_t>(j1 * hf.width + i)], t[static_cast<std::size_t>(j1 * hf.width + i1)]));
+            }
+        tops.push_back(std::move(next));
+    }
     // One row of voxels (layer, row) a task: each voxel is independent. All cones of a voxel
     // share one search: the rings go on while any cone's best may still improve, every box's
     // distance and shape are computed once and tested against the cones it could still improve
     // (each of those cones then bounds its own part of the box). Each
     // cone ends with the smallest distance over the boxes that may meet it, as a search of its
-    // own would (boxes are only skipped when they cannot beat the cone's best).
+    // own would (boxes are only skipped when they cannot beat the cone's best; the order the
+    // boxes come in changes no minimum).
     detail::parallelRows(hf.layers * hf.height, threads, [&](int row) {
         const int j = row % hf.height, k = row / hf.height;
         detail::ConeSearch search(tests);
+        std::array<std::uint64_t, kMaxCones> warm;
+        warm.fill(detail::ConeSearch::kNone);
         for (int i = 0; i < hf.width; ++i) {
             if (k + 1 <= cellMin[static_cast<std::size_t>(j * hf.width + i)]) {
                 for (int c = 0; c < C; ++c) m.d[m.index(c, i, j, k)] = 0; // inside the solid
                 continue;
             }
             search.reset(m.cap);
-            const int maxRing = static_cast<int>(std::ceil(m.cap)) + 1;
-            const auto visit = [&](int di, int dj) {
+            // Sub-box (a, b) of column (ci, cj) (not wrapped) as seen from voxel (i, j, k), and
+            // its id for ConeSearch::from.
+            const auto subBox = [&](int ci, int cj, std::size_t cell, int a, int b) {
+                const double x0 = ci + subStart[static_cast<std::size_t>(a)], y0 = cj + subStart[static_cast<std::size_t>(b)];
+                return detail::Box{{x0 - (i + 1.0), y0 - (j + 1.0), bottom - (k + 1.0)},
+                                   {x0 + subSide - i, y0 + subSide - j, subTop[cell * static_cast<std::size_t>(S * S) + static_cast<std::size_t>(b * S + a)] - k}};
+            };
+            constexpr int kBias = 1 << 20; // |ci - i| <= cap + 6 < kBias / 2 (kMaxDdmCap), i < kMaxMesoSize
+            const auto subId = [&](int ci, int cj, int a, int b) {
+                return static_cast<std::uint64_t>(ci + kBias) << 40 | static_cast<std::uint64_t>(cj + kBias) << 16 | static_cast<std::uint64_t>(b * S + a);
+            };
+            // Warm start: the boxes that set the previous voxel's bests are offered first (to
+            // every cone), so the search skips more of what cannot beat them; the minimum over
+            // the same boxes is the same.
+            for (int c = 0; c < C; ++c) {
+                const std::uint64_t id = warm[static_cast<std::size_t>(c)];
+                if (id == detail::ConeSearch::kNone || std::find(warm.begin(), warm.begin() + c, id) != warm.begin() + c) continue;
+                const int ci = static_cast<int>(id >> 40) - kBias, cj = static_cast<int>(id >> 16 & 0xFFFFFFu) - kBias;
+                const int sub = static_cast<int>(id & 0xFFFFu);
+                const std::size_t cell = static_cast<std::size_t>(detail::wrapIndex(cj, hf.height) * hf.width + detail::wrapIndex(ci, hf.width));
+                search.offer(subBox(ci, cj, cell, sub % S, sub / S), search.allCones(), id);
+            }
+            search.settle();
+            const auto visit = [&](int di, int dj, std::uint32_t among) {
                 const int ci = i + di, cj = j + dj;
                 const std::size_t cell = static_cast<std::size_t>(detail::wrapIndex(cj, hf.height) * hf.width + detail::wrapIndex(ci, hf.width));
                 const detail::Box cellBox{{ci - (i + 1.0), cj - (j + 1.0), bottom - (k + 1.0)}, {ci + 1.0 - i, cj + 1.0 - j, cellTop[cell] - k}};
-                const std::uint32_t open = search.open(cellBox, detail::boxDistance(cellBox)); // the cones this column may improve
+                const std::uint32_t open = search.open(cellBox, detail::boxDistance(cellBox), among); // the cones this column may improve
                 if (open == 0) return;
                 for (int b = 0; b < S; ++b)
-                    for (int a = 0; a < S; ++a) {
-                        const double x0 = ci + double(a) / S, y0 = cj + double(b) / S;
-                        search.offer({{x0 - (i + 1.0), y0 - (j + 1.0), bottom - (k + 1.0)},
-                                      {x0 + 1.0 / S - i, y0 + 1.0 / S - j,
-                                       subTop[cell * static_cast<std::size_t>(S * S) + static_cast<std::size_t>(b * S + a)] - k}},
-                                     open);
-                    }
+                    for (int a = 0; a < S; ++a) search.offer(subBox(ci, cj, cell, a, b), open, subId(ci, cj, a, b));
                 search.settle();
             };
-            for (int r = 0; r <= maxRing && r - 1 < search.worst; ++r) {
+            // Block (x0, y0, level l): the columns di = x0 + [0, 2^l), dj = y0 + [0, 2^l).
+            const auto block = [&](const auto& self, int x0, int y0, int l, std::uint32_t among) -> void {
+                if (l == 0) {
+                    visit(x0, y0, among);
+                    return;
+                }
+                const int e = 1 << l;
+                const double top = tops[static_cast<std::size_t>(l)][static_cast<std::size_t>(detail::wrapIndex(j + y0, hf.height) * hf.width + detail::wrapIndex(i + x0, hf.width))];
+                const detail::Box box{{x0 - 1.0, y0 - 1.0, bottom - (k + 1.0)}, {x0 + double(e), y0 + double(e), top - k}};
+                const std::uint32_t open = search.open(box, detail::boxDistance(box), among);
+                if (open == 0) return;
+                const int h = e / 2;
+                self(self, x0, y0, l - 1, open);
+                self(self, x0 + h, y0, l - 1, open);
+                self(self, x0, y0 + h, l - 1, open);
+                self(self, x0 + h, y0 + h, l - 1, open);
+            };
+            // The top blocks (p, q), x0 = p kTop - kHalf, in rings max(|p|, |q|) = r; ring r is
+            // at least r kTop - kHalf - 1 away (horizontally), and no ring that far can improve
+            // a cone (the search ends by worst <= cap: the columns beyond the cap's reach are
+            // never needed).
+            const auto top = [&](int p, int q) { block(block, p * kTop - kHalf, q * kTop - kHalf, kLevels, search.allCones()); };
+            for (int r = 0; r * kTop - kHalf - 1 < search.worst; ++r) {
                 if (r == 0) {
-                    visit(0, 0);
+                    top(0, 0);
                     continue;
                 }
-                // The ring's perimeter: the rows dj = -r and r, then the columns di = -r and r between them.
                 for (int d = -r; d <= r; ++d) {
-                    visit(d, -r);
-                    visit(d, r);
+                    top(d, -r);
+                    top(d, r);
                 }
                 for (int d = -r + 1; d <= r - 1; ++d) {
-                    visit(-r, d);
-                    visit(r, d);
+                    top(-r, d);
+                    top(r, d);
                 }
             }
             for (int c = 0; c < C; ++c) m.d[m.index(c, i, j, k)] = detail::floatBelow(search.best[static_cast<std::size_t>(c)]);
+            warm = search.from;
         }
     });
     return m;

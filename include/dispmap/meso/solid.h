@@ -221,7 +221,8 @@ inline DistanceMap buildSolidDistanceMap(const MesoSolid& s) {
 inline DirectionalDistanceMap buildSolidDdm(const MesoSolid& s, const ConeSet& cones, float cap = 0, int threads = 0) {
     cones.validate();
     checkThreads(threads, "directional distance map");
-    if (!(cap >= 0) || !std::isfinite(cap)) throw ArgumentError("directional distance map: cap must be finite and >= 0");
+    if (!(cap >= 0) || !(cap <= kMaxDdmCap))
+        throw ArgumentError("directional distance map: cap " + std::to_string(cap) + " not in [0, " + std::to_string(kMaxDdmCap) + "]");
     DirectionalDistanceMap m;
     m.width = s.width;
     m.height = s.height;
