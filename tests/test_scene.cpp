@@ -85,6 +85,7 @@ void checkSame(const Scene& a, const Scene& b) {
     CHECK(a.height == b.height);
     CHECK(a.baselineTexels == b.baselineTexels);
     CHECK(a.baselineLayout == b.baselineLayout);
+    CHECK(a.gregoryEndCaps == b.gregoryEndCaps);
     const SurfaceEffects &ea = a.effects, &eb = b.effects;
     CHECK(ea.technique == eb.technique);
     CHECK(ea.normals == eb.normals);
@@ -101,7 +102,7 @@ void checkSame(const Scene& a, const Scene& b) {
 
 const char* kFullScene = R"({
   // every key, none at its default
-  "mesh": "builtin:torus", "isolation": 4,
+  "mesh": "builtin:torus", "isolation": 4, "endCaps": "bspline",
   "displacement": {"function": "zero", "height": "", "tiles": "", "scale": 0.25, "offset": -0.5, "wrap": true,
                    "k": 3, "mixedSizes": true, "filter": "bwavelet", "sharpBand": 0.125},
   "camera": {"eye": [1, 2, 3], "target": [0.5, 0, -1], "up": [0, 0, 1], "fovY": 55.5, "near": 0.1, "far": 20},
@@ -211,6 +212,7 @@ TEST_CASE("scene: every key parsed, and toJson round-trips", "[scene]") {
     CHECK(s.height == 4096);
     CHECK(s.baselineTexels == 17);
     CHECK(s.baselineLayout == BaselineLayout::MeshUv);
+    CHECK(!s.gregoryEndCaps);
     CHECK(s.effects.technique == Technique::Baseline);
     CHECK(s.effects.normals == NormalMode::Auto);
     CHECK(s.effects.autoToleranceDeg == 0.5);
@@ -317,6 +319,8 @@ TEST_CASE("scene: rejected inputs name the scene and the key", "[scene][errors]"
         {R"({"baselineTexels": -1})", "baselineTexels: -1 is out of range [0, 1024]"},
         {R"({"baselineTexels": 1025})", "baselineTexels: 1025 is out of range [0, 1024]"},
         {R"({"baselineLayout": "atlas"})", "baselineLayout: unknown value 'atlas' (faces, uv)"},
+        {R"({"endCaps": "legacy"})", "endCaps: unknown value 'legacy' (gregory, bspline)"},
+        {R"({"endCaps": true})", "endCaps"},
         {R"({"effects": {"shadows": true}})",
          "scene 'bad.json': effects: unknown effect 'shadows' (known: technique, normals, autoTolerance, lod, "
          "tessellation, wireframe, texelFormat, texelPath)"},

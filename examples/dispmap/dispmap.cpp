@@ -150,17 +150,21 @@ ControlMesh loadMesh(const SourceArgs& a, const char* command) {
 // The surface options `eval` and `tessellate` share.
 struct SurfaceArgs {
     int isolation = 6;
+    std::string endCaps = "gregory";
     double autoToleranceDeg = 2.0;
 };
 
 void addSurfaceOptions(CLI::App* cmd, SurfaceArgs& a) {
     cmd->add_option("--isolation", a.isolation, "OpenSubdiv adaptive isolation level (1..10)");
+    cmd->add_option("--end-caps", a.endCaps, "OpenSubdiv end caps around extraordinary vertices: gregory or bspline (less memory)")
+        ->check(CLI::IsMember({"gregory", "bspline"}));
     cmd->add_option("--auto-tolerance", a.autoToleranceDeg, "auto normals: accepted error in degrees");
 }
 
 BaseSurfaceOptions baseOptions(const SurfaceArgs& a) {
     BaseSurfaceOptions o;
     o.isolationLevel = a.isolation;
+    o.gregoryEndCaps = a.endCaps == "gregory";
     return o;
 }
 
@@ -321,6 +325,7 @@ int eval(const EvalArgs& a) {
     out["mesh"] = a.source.mesh;
     out["ptexFaces"] = base.faceCount();
     out["isolationLevel"] = a.surface.isolation;
+    out["endCaps"] = a.surface.endCaps;
     out["precision"] = a.single ? "float" : "double";
     out["autoToleranceDegrees"] = a.surface.autoToleranceDeg;
     out["autoAccurateFaces"] = ds.autoAccurateCount();

@@ -238,10 +238,10 @@ namespace detail {
 // surface scene parser (no displacement given: "zero"), the rest are the frame mesh's.
 inline void parseMesoBase(const nlohmann::json& b, const std::string& name, const std::string& baseDir, MesoSceneDesc& s) {
     const auto fail = [&](const std::string& why) { return ArgumentError(name + ": " + why); };
-    mesoKeys(b, name, "base", {"mesh", "isolation", "displacement", "placement", "repeat", "uv", "tessellation"});
+    mesoKeys(b, name, "base", {"mesh", "isolation", "endCaps", "displacement", "placement", "repeat", "uv", "tessellation"});
     if (!b.contains("mesh")) throw fail("'base.mesh' is missing (an OBJ path, \"builtin:box\" or \"builtin:torus\")");
     nlohmann::json doc = nlohmann::json::object();
-    for (const char* key : {"mesh", "isolation", "displacement"})
+    for (const char* key : {"mesh", "isolation", "endCaps", "displacement"})
         if (b.contains(key)) doc[key] = b[key];
     if (!doc.contains("displacement")) doc["displacement"] = {{"function", "zero"}};
     s.base = parseSceneDocument(doc, name + " (base)", baseDir);

@@ -53,6 +53,7 @@ struct SceneSurface {
     static BaseSurfaceOptions baseOptions(const Scene& scene) {
         BaseSurfaceOptions o;
         o.isolationLevel = scene.isolation;
+        o.gregoryEndCaps = scene.gregoryEndCaps;
         return o;
     }
     static DisplacedSurfaceOptions displacedOptions(const Scene& scene) {
