@@ -335,6 +335,16 @@ TEST_CASE("a mesostructure scene's base surface", "[meso][frame][scene]") {
         const auto base = buildMesoSceneBase(s);
         REQUIRE(base);
         CHECK(base->triangleCount() > 0);
+        CHECK(s.base->gregoryEndCaps);
+    }
+    SECTION("B-spline end caps on the base") {
+        const MesoSceneDesc s = parse(R"({"mesostructure": {"size": 16, "layers": 8},
+            "base": {"mesh": "builtin:box", "placement": "face", "tessellation": 2, "endCaps": "bspline"},
+            "camera": {"eye": [0, 0, -5], "up": [0, 1, 0]}})");
+        CHECK_FALSE(s.base->gregoryEndCaps);
+        const auto base = buildMesoSceneBase(s);
+        REQUIRE(base);
+        CHECK(base->triangleCount() > 0);
     }
     SECTION("bad base objects") {
         const auto bad = [](const std::string& base, const std::string& why) {
@@ -342,6 +352,7 @@ TEST_CASE("a mesostructure scene's base surface", "[meso][frame][scene]") {
             CHECK_THROWS_WITH(parse(R"({"mesostructure": {}, "base": )" + base + "}"), Contains(why));
         };
         bad(R"({"placement": "uv"})", "'base.mesh' is missing");
+        bad(R"({"mesh": "builtin:torus", "endCaps": "loop"})", "endCaps: unknown value 'loop' (gregory, bspline)");
         bad(R"({"mesh": "builtin:torus", "colour": 1})", "unknown key 'base.colour'");
         bad(R"({"mesh": "builtin:torus", "placement": "planar"})", "unknown 'base.placement' 'planar' (uv, face)");
         bad(R"({"mesh": "builtin:torus", "repeat": [1]})", "'base.repeat' must be a number or [s, t]");

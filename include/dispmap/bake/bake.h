@@ -44,6 +44,7 @@ struct BakeOptions {
     /// else the largest error the smaller tiles may add, a fraction of the diagonal.
     double adaptiveTolerance = 0;
     int isolation = 6;          ///< the base surface's isolation (BaseSurfaceOptions)
+    bool gregoryEndCaps = true; ///< the base surface's end caps (BaseSurfaceOptions): bake over the base the tiles will lie on
     MipFilter filter = MipFilter::Haar;
     int measureFactor = 0;      ///< tessellation factor of the measured result; 0: 2 x density (at most 64, and kMaxMeasureVertices)
     bool measure = true;        ///< measure the errors (the slowest stage on large meshes)
@@ -185,6 +186,7 @@ inline BakeResult bakeFromControlMesh(const DenseMesh& dense, const RayScene& sc
     }
     BaseSurfaceOptions bo;
     bo.isolationLevel = options.isolation;
+    bo.gregoryEndCaps = options.gregoryEndCaps;
     const BaseSurface base(mesh, bo);
     auto samples = std::make_shared<std::vector<std::vector<double>>>(
         extractSamples(base, ks, scene, rep.diagonal, options.extract, &rep.extract, [&](double f) { progress("rays", f); }));

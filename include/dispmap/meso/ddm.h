@@ -284,7 +284,8 @@ struct ConeSearch {
 } // namespace detail
 
 /// The largest cap a map accepts (voxels): far beyond any slab's depth, and it keeps the
-/// search's column indices in range.
+/// search's column indices in range. The build's time grows with the cap squared where a cone
+/// never meets the solid (its search goes out to the cap): keep it near the slab's depth.
 inline constexpr float kMaxDdmCap = 65536.0f;
 
 /// Builds the conservative DDM of a height field. The solid of column (i, j) lies inside the
@@ -292,8 +293,10 @@ inline constexpr float kMaxDdmCap = 65536.0f;
 /// height of the bilinear patch over it (at one of its corners); for each voxel V and cone C
 /// the map stores the smallest, over the difference boxes D = box - V whose directions may lie
 /// in C (detail::boxMeetsCone), of a lower bound on |x| over the points x of D in C
-/// (detail::ConeSearch::bound; 0 where D holds the origin), found by a search in rings of columns
-/// that stops when the ring is farther than the best. Cap default: `layers` voxels. Rows of
+/// (detail::ConeSearch::bound; 0 where D holds the origin), found by a search in rings of column
+/// blocks that stops when the ring is farther than the best (each block asked first which cones
+/// its columns could improve; each voxel starts from the boxes that set its row neighbour's
+/// bests). Cap default: `layers` voxels; at most kMaxDdmCap. Rows of
 /// voxels on `threads` threads (core/parallel.h; the same map for every count).
 inline DirectionalDistanceMap buildDdm(const MesoHeightField& hf, const ConeSet& cones, int subcells = 2, float cap = 0,
                                       int threads = 0) {
@@ -302,7 +305,7 @@ inline DirectionalDistanceMap buildDdm(const MesoHeightField& hf, const ConeSet&
     cones.validate();
     if (subcells < 1 || subcells > 8) throw ArgumentError("directional distance map: subcells " + std::to_string(subcells) + " not in 1..8");
     if (!(cap >= 0) || !(cap <= kMaxDdmCap))
-        throw ArgumentError("directional distance map: cap " + std::to_string(cap) + " not in [0, " + std::to_string(kMaxDdmCap) + "]");
+        throw ArgumentError("directional distance map: cap " + std::to_string(cap) + " not in [0, " + std::to_string(static_cast<int>(kMaxDdmCap)) + "]");
     DirectionalDistanceMap m;
     m.width = hf.width;
     m.height = hf.height;

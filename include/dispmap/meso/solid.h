@@ -222,7 +222,7 @@ inline DirectionalDistanceMap buildSolidDdm(const MesoSolid& s, const ConeSet& c
     cones.validate();
     checkThreads(threads, "directional distance map");
     if (!(cap >= 0) || !(cap <= kMaxDdmCap))
-        throw ArgumentError("directional distance map: cap " + std::to_string(cap) + " not in [0, " + std::to_string(kMaxDdmCap) + "]");
+        throw ArgumentError("directional distance map: cap " + std::to_string(cap) + " not in [0, " + std::to_string(static_cast<int>(kMaxDdmCap)) + "]");
     DirectionalDistanceMap m;
     m.width = s.width;
     m.height = s.height;

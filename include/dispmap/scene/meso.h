@@ -14,7 +14,7 @@
 //             "placement": "uv", "repeat": [8, 8], "uv": "mesh", "tessellation": 8}}
 //
 // Without "base" the mesostructure tiles the plane z = 0 every `tile` world units (the camera
-// above it). With "base" it lies on that surface: "mesh", "isolation" and "displacement" as in
+// above it). With "base" it lies on that surface: "mesh", "isolation", "endCaps" and "displacement" as in
 // a surface scene (scene/scene.h; no displacement: the Catmull-Clark limit surface itself,
 // else the displaced surface, so coarse detail is tessellated and fine detail marched in one
 // draw), tessellated uniformly with `tessellation` segments a face edge (1..64), placed by the

@@ -22,7 +22,7 @@ struct SceneSurface {
     int bakedTexels = 0;
 
     /// Builds the mesh and tiles of `scene` (sceneMesh, sceneTiles), its surfaces at the
-    /// scene's isolation level and auto tolerance, and the baseline atlas if the scene's
+    /// scene's isolation level, end caps and auto tolerance, and the baseline atlas if the scene's
     /// technique is the baseline. Throws what those throw (FileError, MeshError, SceneError...).
     explicit SceneSurface(const Scene& scene)
         : mesh(sceneMesh(scene)), tiles(sceneTiles(scene, mesh)), base(mesh, baseOptions(scene)),
