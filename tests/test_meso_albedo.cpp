@@ -1,4 +1,4 @@
-// The mesostructure's albedo (meso/albedo.h, kern::dmMesoAlbedo): the word layout, the box
+// The mesostructure's albedo (meso/albedo.h, kern::dmMesoImage): the word layout, the box
 // mips, bilinear and trilinear sampling against closed forms, float against double, the
 // footprint's level, bad inputs, and the scene's "albedo" and "mips" keys.
 #include <catch2/catch.hpp>
@@ -82,9 +82,9 @@ TEST_CASE("albedo sampling: bilinear between texels, wrapping, trilinear between
 
 TEST_CASE("the albedo's level follows the pixel's footprint", "[meso][albedo]") {
     const glm::dvec2 size(256, 128);
-    CHECK(kern::dmMesoAlbedoLod(glm::dvec2(1.0 / 256, 0), glm::dvec2(0, 1.0 / 128), size) == 0.0); // a texel a pixel
-    CHECK(kern::dmMesoAlbedoLod(glm::dvec2(4.0 / 256, 0), glm::dvec2(0, 1.0 / 128), size) == Approx(2.0)); // 4 texels in x
-    CHECK(kern::dmMesoAlbedoLod(glm::dvec2(0.1 / 256, 0), glm::dvec2(0, 0.1 / 128), size) == 0.0);  // magnified: level 0
+    CHECK(kern::dmMesoImageLod(glm::dvec2(1.0 / 256, 0), glm::dvec2(0, 1.0 / 128), size) == 0.0); // a texel a pixel
+    CHECK(kern::dmMesoImageLod(glm::dvec2(4.0 / 256, 0), glm::dvec2(0, 1.0 / 128), size) == Approx(2.0)); // 4 texels in x
+    CHECK(kern::dmMesoImageLod(glm::dvec2(0.1 / 256, 0), glm::dvec2(0, 0.1 / 128), size) == 0.0);  // magnified: level 0
 }
 
 TEST_CASE("bad albedos are clear errors", "[meso][albedo][inputs]") {

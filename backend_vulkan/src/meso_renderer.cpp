@@ -90,8 +90,9 @@ void validate(const Context& ctx, const MesoMaps& maps, const MesoRenderOptions&
     if (!(o.camera.fovYDeg > 0 && o.camera.fovYDeg < 180)) throw ArgumentError("meso renderer: field of view must be in (0, 180) degrees");
     if (!(glm::length(o.lightDirection) > 0) || !std::isfinite(glm::length(o.lightDirection)))
         throw ArgumentError("meso renderer: the light direction must be finite and non-zero");
-    if (o.albedo) {
-        const std::vector<std::uint32_t>& w = o.albedo->words;
+    const auto checkImage = [](const std::shared_ptr<const MesoAlbedo>& image, const char* what) {
+        if (!image) return;
+        const std::vector<std::uint32_t>& w = image->words;
         const std::size_t levels = w.empty() ? 0 : w[0];
         bool ok = levels >= 1 && levels <= 32 && w.size() >= 1 + 4 * levels;
         for (std::size_t l = 0; ok && l < levels; ++l) {
@@ -99,8 +100,12 @@ void validate(const Context& ctx, const MesoMaps& maps, const MesoRenderOptions&
             ok = width >= 1 && height >= 1 && width <= kMaxMesoAlbedoSize && height <= kMaxMesoAlbedoSize &&
                  std::uint64_t{w[1 + 4 * l]} + width * height <= w.size();
         }
-        if (!ok) throw ArgumentError("meso renderer: the albedo's words do not hold its levels (build it with mesoAlbedo)");
-    }
+        if (!ok) throw ArgumentError(std::string("meso renderer: the ") + what + "'s words do not hold its levels (build it with mesoAlbedo)");
+    };
+    checkImage(o.albedo, "albedo");
+    checkImage(o.normalMap, "normal map");
+    if (o.normalMap && !(std::isfinite(o.normalScale) && std::abs(o.normalScale) <= kMaxNormalScale))
+        throw ArgumentError("meso renderer: the normal map's scale must be finite and within +-" + dispmap::detail::drawNumber(kMaxNormalScale));
     if (o.shadows) {
         if (!maps.ddm.cones.shadow && !maps.ddm.cones.isotropic)
             throw ArgumentError("meso renderer: shadows need a DDM with shadow cones (build the maps with ConeSet::shadow = true), "
@@ -136,7 +141,7 @@ struct MesoRenderer::Impl {
     MesoBuffers maps;
     std::unique_ptr<Buffer> params;
     std::unique_ptr<Buffer> frame; // the base mesh's corners, or a placeholder
-    std::unique_ptr<Buffer> albedo; // MesoAlbedo::words, or a placeholder
+    std::unique_ptr<Buffer> images; // the albedo's and the normal map's MesoAlbedo::words, or a placeholder
     std::unique_ptr<OffscreenTargets> targets;
     std::unique_ptr<DescriptorSet> descriptors;
     std::unique_ptr<GraphicsPipeline> pipeline;
@@ -163,8 +168,9 @@ struct MesoRenderer::Impl {
         p.background = glm::vec4(glm::vec3(options.background), 1.0f);
         p.dims0 = glm::ivec4(s.width, s.height, s.layers, s.block);
         p.dims1 = glm::ivec4(s.gx, s.gy, s.gz, s.coneM);
-        p.dims2 = glm::ivec4(s.coneN, 0, 0, 0);
-        p.tol = glm::vec4(s.tol, float(options.shadowOffset), 0.0f, 0.0f);
+        const int normalMapWord = options.albedo && options.normalMap ? static_cast<int>(options.albedo->words.size()) : 0;
+        p.dims2 = glm::ivec4(s.coneN, normalMapWord, 0, 0);
+        p.tol = glm::vec4(s.tol, float(options.shadowOffset), float(options.normalScale), options.normalGreenUp ? -1.0f : 1.0f);
         params = std::make_unique<Buffer>(ctx, sizeof p);
         params->upload(&p, sizeof p);
         std::vector<GpuFrameVertex> corners(options.base ? options.base->corners.size() : 1);
@@ -176,22 +182,26 @@ struct MesoRenderer::Impl {
             }
         frame = std::make_unique<Buffer>(ctx, corners.size() * sizeof(GpuFrameVertex));
         frame->upload(corners.data(), corners.size() * sizeof(GpuFrameVertex));
-        const std::vector<std::uint32_t> none(4, 0u);
-        const std::vector<std::uint32_t>& words = options.albedo ? options.albedo->words : none;
-        albedo = std::make_unique<Buffer>(ctx, words.size() * sizeof(std::uint32_t));
-        albedo->upload(words.data(), words.size() * sizeof(std::uint32_t));
+        // The images one after the other: the albedo's words from 0 on, the normal map's after
+        // them (normalMapWord); none: a placeholder.
+        std::vector<std::uint32_t> words;
+        if (options.albedo) words = options.albedo->words;
+        if (options.normalMap) words.insert(words.end(), options.normalMap->words.begin(), options.normalMap->words.end());
+        if (words.empty()) words.assign(4, 0u);
+        images = std::make_unique<Buffer>(ctx, words.size() * sizeof(std::uint32_t));
+        images->upload(words.data(), words.size() * sizeof(std::uint32_t));
     }
 
     void create() {
         const VkFormat depth = options.base ? VK_FORMAT_D32_SFLOAT : VK_FORMAT_UNDEFINED;
         if (options.base) requireFormat(ctx, depth, VK_FORMAT_FEATURE_DEPTH_STENCIL_ATTACHMENT_BIT, "the mesostructure renderer's depth");
         targets = std::make_unique<OffscreenTargets>(ctx, options.width, options.height, kFormats, depth);
-        const auto mb = maps.all(); // maps 0..4, params 5, base mesh 6, albedo 7
+        const auto mb = maps.all(); // maps 0..4, params 5, base mesh 6, images 7
         std::array<VkBuffer, 8> storage{};
         for (std::size_t i = 0; i < 5; ++i) storage[i] = mb[i]->handle();
         storage[5] = params->handle();
         storage[6] = frame->handle();
-        storage[7] = albedo->handle();
+        storage[7] = images->handle();
         descriptors = std::make_unique<DescriptorSet>(ctx, storage, std::span<const SampledImage>{},
                                                       VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT);
         const MesoTechnique& t = options.technique;
@@ -209,7 +219,8 @@ struct MesoRenderer::Impl {
                            options.shadows ? 1u : 0u,
                            static_cast<std::uint32_t>(options.shadowIterations),
                            options.base ? 1u : 0u,
-                           options.albedo ? 1u : 0u};
+                           options.albedo ? 1u : 0u,
+                           options.normalMap ? 1u : 0u};
         d.stages = {{VK_SHADER_STAGE_VERTEX_BIT, options.base ? std::span<const std::uint32_t>(meso_base_vert_spv)
                                                               : std::span<const std::uint32_t>(meso_vert_spv), false},
                     {VK_SHADER_STAGE_FRAGMENT_BIT, meso_frag_spv, true}};

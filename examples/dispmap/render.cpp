@@ -52,6 +52,8 @@ vulkan::MesoRenderOptions mesoSceneRenderOptions(const MesoSceneDesc& s) {
     o.tileSize = s.tile;
     o.depth = s.slab;
     o.checkerVoxels = s.checker;
+    o.normalScale = s.normalScale;
+    o.normalGreenUp = s.normalGreenUp;
     return o;
 }
 
@@ -64,6 +66,7 @@ int renderMesoCommand(const RenderArgs& a, const nlohmann::json& j) {
     vulkan::MesoRenderOptions o = mesoSceneRenderOptions(s);
     o.base = buildMesoSceneBase(s);
     o.albedo = buildMesoSceneAlbedo(s);
+    o.normalMap = buildMesoSceneNormals(s);
     o.frames = a.frames;
     const vulkan::MesoImage im = vulkan::renderMeso(*ctx, maps, o);
     if (!a.output.empty()) writeRgbaPng(a.output, im.width, im.height, im.rgba.data());
@@ -78,6 +81,7 @@ int renderMesoCommand(const RenderArgs& a, const nlohmann::json& j) {
     std::cout << "mesostructure scene '" << s.name << "' on " << ctx->deviceName() << "\n  " << methods[static_cast<int>(s.technique.method)]
               << (s.technique.method == MesoMethod::Ddm ? (s.technique.quadrics ? " + quadric, cones " + s.cones.name() : ", cones " + s.cones.name()) : "")
               << (s.shadows ? ", self-shadowing" : "") << (o.albedo ? ", albedo " + std::to_string(o.albedo->width()) + " x " + std::to_string(o.albedo->height()) + (o.albedo->levels() > 1 ? " with mips" : "") : "")
+              << (o.normalMap ? ", normal map " + std::to_string(o.normalMap->width()) + " x " + std::to_string(o.normalMap->height()) + (s.normalsFromHeight ? " from the heights" : "") : "")
               << (o.base ? "; on '" + s.base->mesh + "' (" + std::to_string(o.base->triangleCount()) + " triangles)" : "") << "; maps built: " << (maps.field.h.empty() ? "" : "heights")
               << (maps.distance.d.empty() ? "" : ", distance map") << (maps.ddm.grid.empty() ? "" : ", DDM")
               << (maps.quadrics.q.empty() ? "" : ", quadrics") << "\n  " << im.width << " x " << im.height << ": GPU time "

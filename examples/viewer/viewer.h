@@ -100,6 +100,7 @@ class Viewer {
     std::optional<dispmap::MesoMaps> mesoMaps_;
     std::shared_ptr<const dispmap::FrameMesh> mesoBase_; ///< the scene's base surface (none: the plane)
     std::shared_ptr<const dispmap::MesoAlbedo> mesoAlbedo_; ///< the scene's colour (none: the checker)
+    std::shared_ptr<const dispmap::MesoAlbedo> mesoNormals_; ///< the scene's normal map (none: the height field's normals)
     bool mesoDirty_ = true;
     VkBuffer staging_ = VK_NULL_HANDLE;
     VkDeviceMemory stagingMemory_ = VK_NULL_HANDLE;

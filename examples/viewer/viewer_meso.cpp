@@ -20,6 +20,9 @@ void Viewer::renderMesoImage() {
     o.base = mesoBase_;
     o.checkerVoxels = mesoScene_.checker;
     o.albedo = mesoAlbedo_;
+    o.normalMap = mesoNormals_;
+    o.normalScale = mesoScene_.normalScale;
+    o.normalGreenUp = mesoScene_.normalGreenUp;
     o.camera.fovYDeg = mesoScene_.fov;
     o.lightDirection = mesoScene_.light;
     o.technique = mesoScene_.technique;

@@ -10,7 +10,7 @@
 #define rvec3 vec3
 #define rvec4 vec4
 #define rmat3 mat3
-#line 32 "include/dispmap/kernels/meso_march.h"
+#line 33 "include/dispmap/kernels/meso_march.h"
 // Donnelly's sphere tracing: `iterations` steps of the trilinearly read distance, or fewer
 // when it falls to eps or below (dmSphereTraceStep). The hit is where the last step ends; a
 // ray that rose through the top is a miss.
@@ -118,7 +118,9 @@ DM_TFUNC bool dmMesoMarchHeight(DmMesoMaps m, rvec3 o, rvec3 d, int linear, int 
     return true;
 }
 
-// --- The albedo (meso/albedo.h: MesoAlbedo's words) -----------------------------------------
+// --- Images over a tile: the albedo and the normal map (meso/albedo.h: MesoAlbedo's words) ----
+// The images' words hold each image's own words from a base word `image` on (the renderer
+// puts the albedo at 0 and the normal map after it); offsets in an image are its own.
 // An RGBA8 texel, red in the lowest byte, as four values in [0, 1].
 DM_TFUNC rvec4 dmUnpackRgba8(uint w, real unit) {
     return rvec4(real(w & 255u), real((w >> 8u) & 255u), real((w >> 16u) & 255u), real(w >> 24u)) / unit;
@@ -127,25 +129,24 @@ DM_TFUNC rvec4 dmUnpackRgba8(uint w, real unit) {
 // The mip level of a pixel's footprint: dx, dy the texture coordinate's change (tiles) to the
 // next pixel in x and y (the derivatives of the base's texture coordinate), size level 0's
 // texels; log2 of the longer footprint in texels, at least 0.
-DM_TFUNC real dmMesoAlbedoLod(rvec2 dx, rvec2 dy, rvec2 size) {
+DM_TFUNC real dmMesoImageLod(rvec2 dx, rvec2 dy, rvec2 size) {
     rvec2 a = dx * size;
     rvec2 b = dy * size;
     real m = max(a.x * a.x + a.y * a.y, b.x * b.x + b.y * b.y);
     return m > real(1) ? real(0.5) * log2(m) : real(0);
 }
 
-// Level `level` at texture coordinate uv (tiles; the image repeats), bilinear. Level 0's
-// texel (x, y) sits at (x / w, y / h) of the tile, where the height field's sample
-// (x W / w, y H / h) is (a colour image paired with the height image colours each height
-// sample with its own pixel); a coarser level's texel sits at the mean of the level-0 texels
-// it averages: p = uv size - 1/2 + size / (2 size0) along each axis.
-DM_TFUNC rvec4 dmMesoAlbedoBilinear(DmMesoMaps m, int level, rvec2 uv) {
-    int offset = int(dmMesoFetchAlbedo(m, 1 + 4 * level));
-    int w = int(dmMesoFetchAlbedo(m, 2 + 4 * level));
-    int h = int(dmMesoFetchAlbedo(m, 3 + 4 * level));
-    real w0 = real(int(dmMesoFetchAlbedo(m, 2)));
-    real h0 = real(int(dmMesoFetchAlbedo(m, 3)));
-    rvec2 p = rvec2(uv.x * real(w) - real(0.5) + real(0.5) * real(w) / w0, uv.y * real(h) - real(0.5) + real(0.5) * real(h) / h0);
+// Level `level` of the image from word `image` on, at texture coordinate uv (tiles; the image
+// repeats), bilinear. Level 0's texel (x, y) sits at (x / w, y / h) of the tile, where the
+// height field's sample (x W / w, y H / h) is (an image paired with the height image covers
+// each height sample with its own pixel); a coarser level's texel sits at the mean of the
+// level-0 texels it averages: p = uv size - 1/2 + size / (2 size0) along each axis.
+DM_TFUNC rvec4 dmMesoImageBilinear(DmMesoMaps m, int image, int level, rvec2 uv) {
+    int offset = image + int(dmMesoFetchImage(m, image + 1 + 4 * level));
+    int w = int(dmMesoFetchImage(m, image + 2 + 4 * level));
+    int h = int(dmMesoFetchImage(m, image + 3 + 4 * level));
+    rvec2 size0 = rvec2(real(int(dmMesoFetchImage(m, image + 2))), real(int(dmMesoFetchImage(m, image + 3))));
+    rvec2 p = rvec2(uv.x * real(w) - real(0.5) + real(0.5) * real(w) / size0.x, uv.y * real(h) - real(0.5) + real(0.5) * real(h) / size0.y);
     rvec2 c = floor(p);
     rvec2 f = p - c;
     // The cell's corners, wrapped: the lower corner's residue first, its neighbour one more
@@ -157,27 +158,27 @@ DM_TFUNC rvec4 dmMesoAlbedoBilinear(DmMesoMaps m, int level, rvec2 uv) {
     int x1 = x0 + 1 == w ? 0 : x0 + 1;
     int y1 = y0 + 1 == h ? 0 : y0 + 1;
     real unit = real(255);
-    rvec4 a = dmUnpackRgba8(dmMesoFetchAlbedo(m, offset + y0 * w + x0), unit);
-    rvec4 b = dmUnpackRgba8(dmMesoFetchAlbedo(m, offset + y0 * w + x1), unit);
-    rvec4 cc = dmUnpackRgba8(dmMesoFetchAlbedo(m, offset + y1 * w + x1), unit);
-    rvec4 d = dmUnpackRgba8(dmMesoFetchAlbedo(m, offset + y1 * w + x0), unit);
+    rvec4 a = dmUnpackRgba8(dmMesoFetchImage(m, offset + y0 * w + x0), unit);
+    rvec4 b = dmUnpackRgba8(dmMesoFetchImage(m, offset + y0 * w + x1), unit);
+    rvec4 cc = dmUnpackRgba8(dmMesoFetchImage(m, offset + y1 * w + x1), unit);
+    rvec4 d = dmUnpackRgba8(dmMesoFetchImage(m, offset + y1 * w + x0), unit);
     rvec4 lo = a + (b - a) * f.x;
     rvec4 hi = d + (cc - d) * f.x;
     return lo + (hi - lo) * f.y;
 }
 
 // Trilinear: the two levels around lod (clamped to the pyramid), mixed.
-DM_TFUNC rvec4 dmMesoAlbedo(DmMesoMaps m, rvec2 uv, real lod) {
-    int levels = int(dmMesoFetchAlbedo(m, 0));
+DM_TFUNC rvec4 dmMesoImage(DmMesoMaps m, int image, rvec2 uv, real lod) {
+    int levels = int(dmMesoFetchImage(m, image));
     real l = min(max(lod, real(0)), real(levels - 1));
     int l0 = int(floor(l));
     int l1 = min(l0 + 1, levels - 1);
     real f = l - real(l0);
-    rvec4 a = dmMesoAlbedoBilinear(m, l0, uv);
+    rvec4 a = dmMesoImageBilinear(m, image, l0, uv);
     if (l1 == l0 || f == real(0)) {
         return a;
     }
-    rvec4 b = dmMesoAlbedoBilinear(m, l1, uv);
+    rvec4 b = dmMesoImageBilinear(m, image, l1, uv);
     return a + (b - a) * f;
 }
 #undef real

@@ -1,6 +1,6 @@
 // The MesoRenderer's parameters (backend_vulkan/src/meso_renderer.cpp, GpuMesoParams), read by
 // plane.vert, base.vert and meso.frag. The maps are bindings 0..4 (march.glsl); the base mesh
-// (FrameMesh corners, three a triangle) is binding 6, the albedo (MesoAlbedo::words) binding 7.
+// (FrameMesh corners, three a triangle) is binding 6, the images (the albedo's MesoAlbedo::words, then the normal map's) binding 7.
 layout(std430, set = 0, binding = 5) readonly buffer MesoParams {
     mat4 viewProj;
     vec4 eye;           // world
@@ -10,8 +10,8 @@ layout(std430, set = 0, binding = 5) readonly buffer MesoParams {
     vec4 background;
     ivec4 dims0;        // width, height, layers, block
     ivec4 dims1;        // gx, gy, gz, coneM
-    ivec4 dims2;        // coneN, 0, 0, 0
-    vec4 tol;           // x: mesoRootTolerance<float>(), y: shadow-ray offset (voxels)
+    ivec4 dims2;        // coneN, the normal map's first word in the images, 0, 0
+    vec4 tol;           // x: mesoRootTolerance<float>(), y: shadow-ray offset (voxels), z: normal-map scale, w: its greenT (kern::dmNormalMapTangent)
 } params;
 
 // One corner of the base mesh (backend_vulkan/src/meso_renderer.cpp, GpuFrameVertex).

@@ -12,7 +12,7 @@
 //   +2 grid       CompressedDdm::grid, [cone][bz][by][bx] uint words
 //   +3 atlas      CompressedDdm::atlas, blocks of block^3 floats, x fastest
 //   +4 quadrics   ColumnQuadrics::q, three vec4 per column, x fastest
-//   (+5 albedo    MesoAlbedo::words: DM_MESO_ALBEDO_BINDING below)
+//   (+5 images    the albedo's and the normal map's MesoAlbedo::words: DM_MESO_IMAGE_BINDING below)
 // A buffer a pipeline does not read may be a 16-byte placeholder.
 #ifndef DISPMAP_MESO_MARCH_GLSL
 #define DISPMAP_MESO_MARCH_GLSL
@@ -30,12 +30,13 @@ layout(std430, set = DM_MESO_SET, binding = DM_MESO_BINDING + 1) readonly buffer
 layout(std430, set = DM_MESO_SET, binding = DM_MESO_BINDING + 2) readonly buffer DmMesoGrid { uint dmMesoGrid[]; };
 layout(std430, set = DM_MESO_SET, binding = DM_MESO_BINDING + 3) readonly buffer DmMesoAtlas { float dmMesoAtlas[]; };
 layout(std430, set = DM_MESO_SET, binding = DM_MESO_BINDING + 4) readonly buffer DmMesoQuadrics { vec4 dmMesoQuadrics[]; };
-// The albedo (MesoAlbedo::words, meso/albedo.h), read only by dmMesoAlbedo: binding
-// DM_MESO_ALBEDO_BINDING (default the sixth, DM_MESO_BINDING + 5).
-#ifndef DM_MESO_ALBEDO_BINDING
-#define DM_MESO_ALBEDO_BINDING (DM_MESO_BINDING + 5)
+// The images over a tile (MesoAlbedo::words, meso/albedo.h, one after the other: each read
+// from its first word on), read only by dmMesoImage: binding DM_MESO_IMAGE_BINDING (default
+// the sixth, DM_MESO_BINDING + 5).
+#ifndef DM_MESO_IMAGE_BINDING
+#define DM_MESO_IMAGE_BINDING (DM_MESO_BINDING + 5)
 #endif
-layout(std430, set = DM_MESO_SET, binding = DM_MESO_ALBEDO_BINDING) readonly buffer DmMesoAlbedoWords { uint dmMesoAlbedoWords[]; };
+layout(std430, set = DM_MESO_SET, binding = DM_MESO_IMAGE_BINDING) readonly buffer DmMesoImageWords { uint dmMesoImageWords[]; };
 
 // The sizes of the maps (all share W x H x L) and the root tolerance
 // (mesoRootTolerance<float>(), passed by the host, never retyped here).
@@ -105,8 +106,8 @@ vec4 dmMesoFetchCell(DmMesoSize s, int i, int j) {
 vec4 dmMesoFetchQuadric(DmMesoSize s, int i, int j, int part) {
     return dmMesoQuadrics[3 * (dmMesoWrap(j, s.height) * s.width + dmMesoWrap(i, s.width)) + part];
 }
-uint dmMesoFetchAlbedo(DmMesoSize s, int i) {
-    return dmMesoAlbedoWords[i];
+uint dmMesoFetchImage(DmMesoSize s, int i) {
+    return dmMesoImageWords[i];
 }
 #include "meso_march.glsl"
 #undef DmMesoMaps

@@ -4,7 +4,9 @@
 // dmFrameCoordinates), the marcher the specialisation constants choose (only that one
 // survives specialisation), the shading with the height field's normal and, only when asked
 // for, a shadow ray through the DDM's shadow cones; the colour is the albedo image's at the hit
-// (trilinear over its mips, the level from the pixel's footprint) or a checker. On a base mesh the depth is the hit's
+// (trilinear over its mips, the level from the pixel's footprint) or a checker; the shading
+// normal is the height field's or, when the scene has one, the normal map's at the hit
+// (trilinear in the same way, dmNormalMapTangent, on the pixel's frame). On a base mesh the depth is the hit's
 // (dmFramePoint), so the detail occludes and is occluded where it is, and a ray that misses
 // (it leaves through the top, e.g. from a back face) writes the far plane: what lies behind
 // it shows through. Every formula is a kernel (kernels/meso.h, kernels/meso_shade.h);
@@ -12,7 +14,7 @@
 #extension GL_GOOGLE_include_directive : require
 #define DM_MESO_SET 0
 #define DM_MESO_BINDING 0
-#define DM_MESO_ALBEDO_BINDING 7
+#define DM_MESO_IMAGE_BINDING 7
 #include "march.glsl"
 #include "meso_shade.glsl"
 #include "common.glsl"
@@ -28,6 +30,7 @@ layout(constant_id = 7) const bool kShadows = false;
 layout(constant_id = 8) const int kShadowIterations = 64;
 layout(constant_id = 9) const int kBase = 0;            // 0 the plane z = 0, 1 a base mesh (base.vert)
 layout(constant_id = 10) const bool kAlbedo = false;    // the albedo image (binding 7), else the checker
+layout(constant_id = 11) const bool kNormalMap = false; // the normal map (binding 7 from params.dims2.y on) shades, else the height field's normal
 
 layout(location = 0) in vec3 worldPos;
 layout(location = 1) in vec2 tex;
@@ -103,6 +106,12 @@ void main() {
         vec4 clip = params.viewProj * vec4(dmFramePoint(worldPos, p, o, framePS, framePT, n0, vpu), 1.0);
         gl_FragDepth = clamp(clip.z / clip.w, 0.0, 1.0);
     }
+    if (kNormalMap) {
+        int image = params.dims2.y;
+        float lod = dmMesoImageLod(uvDx, uvDy, vec2(float(dmMesoFetchImage(s, image + 2)), float(dmMesoFetchImage(s, image + 3))));
+        vec3 nt = dmNormalMapTangent(dmMesoImage(s, image, vec2(p.x / float(s.width), p.y / float(s.height)), lod), params.tol.z, params.tol.w);
+        n = kBase == 0 ? nt : dmFrameTangentNormal(nt, framePS, framePT, n0);
+    }
     float lit = 1.0;
     uint shadowIterations = 0u;
     if (kShadows) {
@@ -119,8 +128,8 @@ void main() {
     }
     vec3 albedo;
     if (kAlbedo) {
-        float lod = dmMesoAlbedoLod(uvDx, uvDy, vec2(float(dmMesoFetchAlbedo(s, 2)), float(dmMesoFetchAlbedo(s, 3))));
-        albedo = dmMesoAlbedo(s, vec2(p.x / float(s.width), p.y / float(s.height)), lod).rgb;
+        float lod = dmMesoImageLod(uvDx, uvDy, vec2(float(dmMesoFetchImage(s, 2)), float(dmMesoFetchImage(s, 3))));
+        albedo = dmMesoImage(s, 0, vec2(p.x / float(s.width), p.y / float(s.height)), lod).rgb;
     } else {
         albedo = dmMesoChecker(vec2(p.x, p.y), params.voxelsPerUnit.w) * vec3(0.95, 0.85, 0.7);
     }

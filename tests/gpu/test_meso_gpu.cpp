@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <random>
 #include <string>
 
 #include "gpu_support.h"
@@ -283,11 +284,11 @@ TEST_CASE("on a curved base the renderer marches every pixel as the CPU marcher 
     dmgpu::checkNoValidationMessages();
 }
 
-TEST_CASE("a flat base mesh renders the plane's hits", "[meso]") {
-    // A 4 x 4 grid on [-1, 1]^2 in z = 0 with UVs over [0, 1]^2: its limit surface is the plane
-    // with s = 2 x + 2 at four tiles a UV unit, the plane's tile of 0.5 shifted by two whole
-    // tiles. The two routes to the voxel ray (world space, and the interpolated frame) differ
-    // by float rounding, so the hits agree to a small fraction of a voxel.
+namespace {
+// A 4 x 4 grid on [-1, 1]^2 in z = 0 with UVs over [0, 1]^2: its limit surface is the plane
+// with s = 2 x + 2 at four tiles a UV unit, the plane's tile of 0.5 shifted by two whole
+// tiles; its frames are the plane's axes (pS, pT along x and y).
+std::shared_ptr<const dispmap::FrameMesh> flatGridBase() {
     std::string obj;
     for (int j = 0; j <= 4; ++j)
         for (int i = 0; i <= 4; ++i)
@@ -301,8 +302,16 @@ TEST_CASE("a flat base mesh renders the plane's hits", "[meso]") {
         }
     // Corners interpolated as in the OBJ's boundary rule "edge and corner": the limit surface of
     // a flat grid is the grid's own square.
-    const auto base = frameMeshOf(dispmap::ControlMesh::fromObjText(obj + "t interpolateboundary 1/0/0 1\n", "flat grid"), 4.0,
-                                  {dispmap::FramePlacement::Uv, {4.0, 4.0}, dispmap::NormalMode::Accurate});
+    return frameMeshOf(dispmap::ControlMesh::fromObjText(obj + "t interpolateboundary 1/0/0 1\n", "flat grid"), 4.0,
+                       {dispmap::FramePlacement::Uv, {4.0, 4.0}, dispmap::NormalMode::Accurate});
+}
+} // namespace
+
+TEST_CASE("a flat base mesh renders the plane's hits", "[meso]") {
+    // The flat grid (flatGridBase) against the plane. The two routes to the voxel ray (world
+    // space, and the interpolated frame) differ by float rounding, so the hits agree to a
+    // small fraction of a voxel.
+    const auto base = flatGridBase();
     auto& ctx = dmgpu::context();
     MesoRenderOptions plane = smallScene(MesoMethod::Ddm);
     MesoRenderOptions mesh = plane;
@@ -422,5 +431,66 @@ TEST_CASE("the albedo is the CPU's at every hit; its mips remove the aliasing", 
     INFO("variance of the grey level: " << without << " without mips, " << with << " with");
     CHECK(without > 0.01);
     CHECK(with < 0.2 * without);
+    dmgpu::checkNoValidationMessages();
+}
+
+// --- The normal map (meso/albedo.h, kern::dmNormalMapTangent) -----------------------------------
+TEST_CASE("the normal map shades every hit as the CPU reads it, on the plane and on a base", "[meso]") {
+    auto& ctx = dmgpu::context();
+    const bool strict = dispmap::parity::strictFor(ctx, dispmap::parity::Options{});
+    // A 7 x 5 map of random heights (slopes up to about 4), one level: at each hit the shading
+    // normal is the map's bilinear texel read at the hit, as the CPU reads it.
+    dispmap::HeightImage heights;
+    heights.width = 7;
+    heights.height = 5;
+    std::mt19937 g(11);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    for (int i = 0; i < 35; ++i) heights.values.push_back(u(g));
+    const auto map = std::make_shared<const dispmap::MesoAlbedo>(dispmap::mesoAlbedo(7, 5, dispmap::normalMapFromHeights(heights, 0.3), false));
+    struct Case {
+        bool grid;
+        double scale;
+        bool greenUp;
+    };
+    for (const Case c : {Case{false, 1.0, true}, Case{false, 0.5, false}, Case{true, 1.0, true}}) {
+        MesoRenderOptions o = smallScene(MesoMethod::Ddm);
+        if (c.grid) o.base = flatGridBase();
+        o.checkerVoxels = 0; // the plain albedo (0.95, 0.85, 0.7)
+        o.normalMap = map;
+        o.normalScale = c.scale;
+        o.normalGreenUp = c.greenUp;
+        const MesoImage img = dispmap::vulkan::renderMeso(ctx, shadowMaps(), o);
+        const glm::vec3 light = glm::normalize(glm::vec3(o.lightDirection));
+        const glm::vec3 albedo(0.95f, 0.85f, 0.7f);
+        std::size_t hits = 0, close = 0;
+        for (std::size_t i = 0; i < img.hit.size(); ++i) {
+            if (!img.hit[i]) continue;
+            ++hits;
+            // The plane's frame and the grid's are the axes: the tangent-space normal is the world's.
+            const glm::vec3 n = dispmap::sampleMesoNormal<float>(*map, glm::dvec2(img.hitPoint[i].x / 16.0f, img.hitPoint[i].y / 16.0f), 0.0,
+                                                                 c.scale, c.greenUp ? -1.0 : 1.0);
+            const float shade = dispmap::kern::dmMesoShade<float>(1.0f, n, light, float(o.ambient), 1.0f);
+            double worst = 0;
+            for (int k = 0; k < 3; ++k)
+                worst = std::max(worst, std::abs(double(img.rgba[4 * i + static_cast<std::size_t>(k)]) - 255.0 * double(albedo[k] * shade)));
+            // UNORM8 rounds to nearest (plus float noise); on the grid the frame's float
+            // rounding moves a colour by up to a level.
+            close += worst <= (c.grid ? 1.01 : 0.51) ? 1u : 0u;
+        }
+        INFO((c.grid ? "grid" : "plane") << ", scale " << c.scale << (c.greenUp ? ", green up: " : ", green down: ") << close << " of " << hits
+                                         << " hit pixels match the CPU's colour");
+        REQUIRE(hits > 500);
+        if (strict && !c.grid) CHECK(close == hits);
+        CHECK(double(close) >= 0.99 * double(hits));
+    }
+    // Bad normal maps are refused.
+    MesoRenderOptions o = smallScene(MesoMethod::Ddm);
+    auto broken = std::make_shared<dispmap::MesoAlbedo>(*map);
+    broken->words.resize(20);
+    o.normalMap = broken;
+    CHECK_THROWS_WITH(dispmap::vulkan::MesoRenderer(ctx, shadowMaps(), o), Catch::Contains("the normal map's words do not hold its levels"));
+    o.normalMap = map;
+    o.normalScale = std::nan("");
+    CHECK_THROWS_WITH(dispmap::vulkan::MesoRenderer(ctx, shadowMaps(), o), Catch::Contains("the normal map's scale must be finite"));
     dmgpu::checkNoValidationMessages();
 }

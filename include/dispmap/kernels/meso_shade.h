@@ -1,7 +1,7 @@
 #pragma once
 // Kernels of the mesostructure renderer (backend_vulkan MesoRenderer, shaders/meso/): the
 // pixel ray's entry into voxel space, the normal of the bilinear height field at a hit, the
-// shadow ray's origin and the shading. Voxel space as in kernels/meso.h. On the plane z = 0
+// shadow ray's origin, a normal map's normal and the shading. Voxel space as in kernels/meso.h. On the plane z = 0
 // (tangent +x, bitangent +y, normal +z) tangent space is world space and voxelsPerUnit =
 // (W / tile size, H / tile size, L / depth) in world units. On any other base (a curved
 // surface, Donnelly §8.3.1: locally planar) each pixel has a frame (dmFrameCoordinates): the
@@ -80,6 +80,25 @@ DM_TFUNC rvec3 dmFrameNormal(rvec4 h, rvec2 f, rvec3 pS, rvec3 pT, rvec3 n, rvec
         m = -m;
     }
     return m * (real(1) / sqrt(dmDot3(m, m)));
+}
+
+// The tangent-space normal that a normal map's texel c (RGBA in [0, 1]) holds: x = 2 r - 1
+// along +s, y = 2 g - 1 along greenT t (greenT -1: green points to the image's top, t = 0, as
+// OpenGL and glTF write normal maps; +1: to its bottom, as DirectX), z = 2 b - 1 along the
+// surface normal; x and y scaled by `scale` (glTF's normalTexture.scale), then unit length
+// (a texel of length 0 is the unperturbed normal, (0, 0, 1)).
+DM_TFUNC rvec3 dmNormalMapTangent(rvec4 c, real scale, real greenT) {
+    rvec3 n = rvec3((c.x * real(2) - real(1)) * scale, (c.y * real(2) - real(1)) * (scale * greenT), c.z * real(2) - real(1));
+    real l = dmDot3(n, n);
+    return l > real(0) ? n * (real(1) / sqrt(l)) : rvec3(real(0), real(0), real(1));
+}
+
+// The world normal of tangent-space normal nt on a base's frame (pS, pT, n): x along pS, y
+// along pT and z along n, each of unit length (MikkTSpace's rule with the frame's own
+// directions), then unit length. On the plane z = 0 (pS, pT, n the axes) it is nt itself.
+DM_TFUNC rvec3 dmFrameTangentNormal(rvec3 nt, rvec3 pS, rvec3 pT, rvec3 n) {
+    rvec3 w = pS * (nt.x / sqrt(dmDot3(pS, pS))) + pT * (nt.y / sqrt(dmDot3(pT, pT))) + n * (nt.z / sqrt(dmDot3(n, n)));
+    return w * (real(1) / sqrt(dmDot3(w, w)));
 }
 
 // Albedo of a checker of `period` voxels (1 and 0.55), so the parallax is visible; a period

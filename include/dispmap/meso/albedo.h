@@ -1,10 +1,12 @@
 #pragma once
-// MesoAlbedo: the colour of a mesostructure, an RGBA8 image over one tile (it repeats with the
+// MesoAlbedo: an RGBA8 image over one tile: the colour of a mesostructure, or its normal map
+// (tangent space, normalMapFromHeights below; kern::dmNormalMapTangent reads a texel) (it repeats with the
 // height field: at texture coordinate (s, t) in tiles, the image's texel (s w, t h) with w x h
 // its size, wrapping; texel (x, y) sits on the height field's sample (x W / w, y H / h), so a
 // colour image of the height image's size colours each height sample with its own pixel),
-// with box-filtered mip levels for the footprint of a pixel. Sampled by
-// kern::dmMesoAlbedo (kernels/meso_march.h) on the CPU (sampleMesoAlbedo) and in the
+// with box-filtered mip levels for the footprint of a pixel (a normal map's levels average the
+// encoded vectors, which the reader scales back to unit length). Sampled by
+// kern::dmMesoImage (kernels/meso_march.h) on the CPU (sampleMesoAlbedo) and in the
 // MesoRenderer's fragment shader, from one array of 32-bit words:
 //   word 0                  the level count n
 //   words 1 + 4 l .. +3     level l: offset of its first texel word, width, height, 0
@@ -13,6 +15,7 @@
 // Level l + 1 is the 2 x 2 box average of level l (rounded to nearest), floor(w / 2) x
 // floor(h / 2) texels (at least 1: an odd last row or column is dropped), down to 1 x 1.
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -20,11 +23,16 @@
 #include <glm/glm.hpp>
 
 #include "dispmap/core/error.h"
+#include "dispmap/core/height_image.h"
 
 namespace dispmap {
 
 /// Largest side of an albedo image (texels): a 4096^2 image and its levels take 85 MiB.
 inline constexpr int kMaxMesoAlbedoSize = 4096;
+
+/// Largest |scale| of a normal map's x and y (kern::dmNormalMapTangent): beyond it every
+/// perturbed normal lies within a degree of the tangent plane.
+inline constexpr double kMaxNormalScale = 100.0;
 
 struct MesoAlbedo {
     std::vector<std::uint32_t> words; ///< the layout of the header
@@ -91,6 +99,39 @@ inline MesoAlbedo mesoAlbedo(int width, int height, const std::vector<std::uint8
             }
     }
     return a;
+}
+
+/// A tangent-space normal map of a height image over one tile (RGBA8, rows as the image's,
+/// for mesoAlbedo): the surface z = slope v(s, t), v the image's values, s and t in tiles and
+/// z in tile widths (slope: the world height of white over the world width of a tile), its
+/// normal (-slope dv/ds, -slope dv/dt, 1) normalised, the derivatives central differences of
+/// the wrapped image at each texel. Encoded as OpenGL and glTF do: (x, y, z) -> (r, g, b) =
+/// 255 (n + 1) / 2 rounded, with y towards the image's top (green up: decode with greenT = -1,
+/// kern::dmNormalMapTangent); alpha 255. ArgumentError for an empty image, a size beyond
+/// kMaxMesoAlbedoSize, or a slope or value that is not finite.
+inline std::vector<std::uint8_t> normalMapFromHeights(const HeightImage& image, double slope) {
+    const int w = image.width, h = image.height;
+    if (w < 1 || h < 1 || w > kMaxMesoAlbedoSize || h > kMaxMesoAlbedoSize ||
+        image.values.size() != static_cast<std::size_t>(w) * static_cast<std::size_t>(h))
+        throw ArgumentError("normal map: height image of " + std::to_string(w) + " x " + std::to_string(h) + " texels (1 .. " +
+                            std::to_string(kMaxMesoAlbedoSize) + " a side, with its values)");
+    if (!std::isfinite(slope)) throw ArgumentError("normal map: the slope is not finite");
+    for (const float v : image.values)
+        if (!std::isfinite(v)) throw ArgumentError("normal map: the height image has a value that is not finite");
+    std::vector<std::uint8_t> rgba(4 * image.values.size());
+    const auto byte = [](double c) { return static_cast<std::uint8_t>(std::lround(std::clamp(127.5 * (c + 1.0), 0.0, 255.0))); };
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const double ds = 0.5 * w * (double(image.at((x + 1) % w, y)) - double(image.at((x + w - 1) % w, y)));
+            const double dt = 0.5 * h * (double(image.at(x, (y + 1) % h)) - double(image.at(x, (y + h - 1) % h)));
+            const glm::dvec3 n = glm::normalize(glm::dvec3(-slope * ds, -slope * dt, 1.0));
+            const std::size_t i = 4 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x));
+            rgba[i] = byte(n.x);
+            rgba[i + 1] = byte(-n.y); // green up: towards t = 0
+            rgba[i + 2] = byte(n.z);
+            rgba[i + 3] = 255;
+        }
+    return rgba;
 }
 
 } // namespace dispmap

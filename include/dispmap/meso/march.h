@@ -19,6 +19,7 @@
 #include "dispmap/meso/height_field.h"
 #include "dispmap/meso/quadrics.h"
 #include "dispmap/kernels/meso_march.h"
+#include "dispmap/kernels/meso_shade.h"
 
 namespace dispmap {
 
@@ -55,7 +56,7 @@ template <typename real> struct DmMesoMapsT {
     const DirectionalDistanceMap* dense = nullptr;
     const CompressedDdm* compressed = nullptr;
     const ColumnQuadrics* quadrics = nullptr;
-    const MesoAlbedo* albedo = nullptr;
+    const MesoAlbedo* image = nullptr; ///< the one image sampled (its words from 0 on)
 };
 template <typename real> float dmMesoFetchDistance(const DmMesoMapsT<real>& m, int i, int j, int k) { return m.distance->at(i, j, k); }
 template <typename real> float dmMesoFetchDdm(const DmMesoMapsT<real>& m, int c, int i, int j, int k) {
@@ -68,20 +69,31 @@ template <typename real> glm::vec4 dmMesoFetchQuadric(const DmMesoMapsT<real>& m
                     static_cast<std::size_t>(dispmap::detail::wrapIndex(i, q.width))) +
                static_cast<std::size_t>(part)];
 }
-template <typename real> std::uint32_t dmMesoFetchAlbedo(const DmMesoMapsT<real>& m, int i) { return m.albedo->words[static_cast<std::size_t>(i)]; }
+template <typename real> std::uint32_t dmMesoFetchImage(const DmMesoMapsT<real>& m, int i) { return m.image->words[static_cast<std::size_t>(i)]; }
 } // namespace dispmap::kern
 
 namespace dispmap {
 
-/// The albedo at texture coordinate uv (tiles) and mip level lod (kern::dmMesoAlbedo, as the
-/// renderer's fragment shader samples it), RGBA in [0, 1]. ArgumentError for an empty albedo
-/// or a coordinate or level that is not finite.
+/// The image (an albedo or a normal map) at texture coordinate uv (tiles) and mip level lod
+/// (kern::dmMesoImage, as the renderer's fragment shader samples it), RGBA in [0, 1].
+/// ArgumentError for an empty image or a coordinate or level that is not finite.
 template <class real> glm::vec<4, real> sampleMesoAlbedo(const MesoAlbedo& a, const glm::dvec2& uv, double lod) {
     if (a.levels() < 1) throw ArgumentError("sampleMesoAlbedo: the albedo is empty");
     if (!std::isfinite(uv.x + uv.y + lod)) throw ArgumentError("sampleMesoAlbedo: texture coordinate or level not finite");
     kern::DmMesoMapsT<real> m;
-    m.albedo = &a;
-    return kern::dmMesoAlbedo<real>(m, glm::vec<2, real>(uv), real(lod));
+    m.image = &a;
+    return kern::dmMesoImage<real>(m, 0, glm::vec<2, real>(uv), real(lod));
+}
+
+/// The tangent-space unit normal a normal map holds at texture coordinate uv and level lod
+/// (kern::dmNormalMapTangent of its trilinear sample, as the renderer reads it): scale
+/// multiplies x and y (glTF's normalTexture.scale), greenT is -1 for green up (OpenGL, glTF,
+/// normalMapFromHeights) and +1 for green down (DirectX). ArgumentError as sampleMesoAlbedo,
+/// and for a scale that is not finite or a greenT other than +-1.
+template <class real> glm::vec<3, real> sampleMesoNormal(const MesoAlbedo& map, const glm::dvec2& uv, double lod, double scale, double greenT) {
+    if (!std::isfinite(scale) || (greenT != 1.0 && greenT != -1.0))
+        throw ArgumentError("sampleMesoNormal: the scale must be finite and greenT +1 or -1");
+    return kern::dmNormalMapTangent<real>(sampleMesoAlbedo<real>(map, uv, lod), real(scale), real(greenT));
 }
 
 /// The exact reference: the ray against the bilinear height field column by column (2D DDA),

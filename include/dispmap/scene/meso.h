@@ -5,7 +5,8 @@
 //
 //   {"mesostructure": {"height": "bricks.png", "size": 64, "layers": 16, "depth": 14,
 //                      "cones": "4x1", "block": 4,          (or "function": "grating")
-//                      "albedo": "bricks_colour.png"},
+//                      "albedo": "bricks_colour.png", "normals": "height",
+//                      "normalScale": 1, "normalGreen": "up"},
 //    "camera": {"eye": [0.3, -1.2, 0.7], "target": [0, 0, 0], "up": [0, 0, 1], "fov": 45},
 //    "light": [0.4, 0.3, 0.8], "resolution": [320, 240], "tile": 0.5, "slab": 0.06, "checker": 8,
 //    "effects": {"technique": "ddm", "quadrics": true, "iterations": 128, "exitRule": 1,
@@ -23,7 +24,12 @@
 // in world units below the surface (surface/frame_mesh.h, FrameMesh). "albedo": a colour
 // image (PNG, RGBA8) over one tile (meso/albedo.h), sampled at each hit trilinearly over its
 // mips ("mips": false: level 0 only, bilinear); none: a checker of period "checker" voxels
-// (0: plain).
+// (0: plain). "normals": a tangent-space normal map (PNG, RGBA8) over one tile, filtered like
+// the albedo, whose normal shades instead of the height field's ("normalScale" multiplies its
+// x and y, "normalGreen" "up" as OpenGL and glTF or "down" as DirectX); or "height": the
+// normal map of the height image at its full resolution (normalMapFromHeights; the function's
+// field without an image), so that a coarse marched field is shaded with the image's fine
+// slopes, at the plane's proportions (white's depth slab / layers over `tile`).
 //
 // Effects, and only those: the maps the technique reads are the only maps built (a relief
 // scene builds no distance map and no DDM; shadow cones only with "shadows"), and the
@@ -51,6 +57,10 @@ struct MesoSceneDesc {
     std::string heightImage;        ///< image path (resolved against the scene's folder); empty: the function
     std::string function = "grating";
     std::string albedoImage;        ///< colour image path (resolved); empty: the checker
+    std::string normalsImage;       ///< normal map path (resolved); empty: none, or from the heights
+    bool normalsFromHeight = false; ///< "normals": "height"
+    double normalScale = 1;         ///< "normalScale"
+    bool normalGreenUp = true;      ///< "normalGreen": "up" (true) or "down"
     bool albedoMips = true;
     int size = 64, layers = 16;     ///< texels per side after a box filter (0: the image's), voxel layers
     double depth = -1;              ///< voxels of white (default: 7/8 of the layers)
@@ -291,7 +301,8 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
     const auto fail = [&](const std::string& why) { return ArgumentError(name + ": " + why); };
     mesoKeys(j, name, "", {"mesostructure", "camera", "light", "resolution", "tile", "slab", "checker", "effects", "base"});
     const nlohmann::json& m = j["mesostructure"];
-    mesoKeys(m, name, "mesostructure", {"height", "function", "size", "layers", "depth", "cones", "block", "albedo"});
+    mesoKeys(m, name, "mesostructure", {"height", "function", "size", "layers", "depth", "cones", "block", "albedo", "normals",
+                                                 "normalScale", "normalGreen"});
     const auto path = [&](const char* key) {
         if (!m[key].is_string()) throw fail(std::string("'mesostructure.") + key + "' must be a file name");
         const std::string& h = m[key].get_ref<const std::string&>();
@@ -304,6 +315,18 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
     };
     if (m.contains("height")) s.heightImage = path("height");
     if (m.contains("albedo")) s.albedoImage = path("albedo");
+    if (m.contains("normals")) {
+        if (m["normals"].is_string() && m["normals"].get_ref<const std::string&>() == "height") s.normalsFromHeight = true;
+        else s.normalsImage = path("normals");
+    }
+    s.normalScale = mesoNumber(m, "normalScale", s.normalScale, name, "mesostructure.");
+    if (!(std::abs(s.normalScale) <= kMaxNormalScale))
+        throw fail("'mesostructure.normalScale' " + detail::drawNumber(s.normalScale) + " is not within +-" + detail::drawNumber(kMaxNormalScale));
+    if (m.contains("normalGreen")) {
+        const std::string g = m["normalGreen"].is_string() ? m["normalGreen"].get<std::string>() : "";
+        if (g != "up" && g != "down") throw fail("'mesostructure.normalGreen' must be \"up\" (OpenGL, glTF) or \"down\" (DirectX)");
+        s.normalGreenUp = g == "up";
+    }
     if (m.contains("function")) {
         if (!m["function"].is_string()) throw fail("'mesostructure.function' must be a name");
         s.function = m["function"].get<std::string>();
@@ -444,6 +467,37 @@ inline std::shared_ptr<const MesoAlbedo> buildMesoSceneAlbedo(const MesoSceneDes
         return std::make_shared<const MesoAlbedo>(mesoAlbedo(img.width, img.height, img.rgba, s.albedoMips));
     } catch (const ArgumentError& e) {
         throw ArgumentError(s.name + ": 'mesostructure.albedo': " + e.what());
+    }
+}
+
+/// The scene's normal map ("mesostructure.normals", with its mips unless "effects.mips" is
+/// false), or none: the PNG, or with "height" normalMapFromHeights of the height image at its
+/// full resolution (the function's field at `size` without an image) at the plane's
+/// proportions. FileError for an image that cannot be read, ArgumentError (naming the scene)
+/// for one larger than kMaxMesoAlbedoSize.
+inline std::shared_ptr<const MesoAlbedo> buildMesoSceneNormals(const MesoSceneDesc& s) {
+    try {
+        if (!s.normalsImage.empty()) {
+            const RgbaImage img = readRgbaPng(s.normalsImage, kMaxMesoAlbedoSize);
+            return std::make_shared<const MesoAlbedo>(mesoAlbedo(img.width, img.height, img.rgba, s.albedoMips));
+        }
+        if (!s.normalsFromHeight) return nullptr;
+        // Heights in voxels, the slope from voxels of height to tile widths.
+        HeightImage heights;
+        const double depth = s.depth > 0 ? s.depth : 0.875 * s.layers;
+        if (!s.heightImage.empty()) {
+            heights = readHeightPng(s.heightImage, kMaxMesoAlbedoSize, " (the largest normal map made from heights)");
+            for (float& v : heights.values) v = static_cast<float>(double(v) * depth);
+        } else {
+            const MesoHeightField f = mesoFunctionField(s.function, s.size, s.layers);
+            heights.width = f.width;
+            heights.height = f.height;
+            heights.values = f.h;
+        }
+        const std::vector<std::uint8_t> rgba = normalMapFromHeights(heights, s.slab / (s.layers * s.tile));
+        return std::make_shared<const MesoAlbedo>(mesoAlbedo(heights.width, heights.height, rgba, s.albedoMips));
+    } catch (const ArgumentError& e) {
+        throw ArgumentError(s.name + ": 'mesostructure.normals': " + e.what());
     }
 }
 

@@ -11,7 +11,8 @@
 // are specialisation constants, so only the chosen marcher is compiled into the pipeline. On
 // a base mesh the pass has a depth buffer and writes the hit's depth; rays that miss show
 // what lies behind. Shading: Lambert with the normal of the bilinear height field at the hit
-// and a checker albedo; a shadow ray through the DDM's shadow cones only when `shadows` is on
+// (or the normal map's, `normalMap`, and only then is its reading compiled in) and a checker
+// albedo; a shadow ray through the DDM's shadow cones only when `shadows` is on
 // (on a base mesh, a point whose base turns away from the light is in shadow). The colour is
 // the albedo image's (`albedo`) at the hit, filtered over its mips, or a checker.
 //
@@ -57,6 +58,13 @@ struct MesoRenderOptions {
     /// The colour (meso/albedo.h: over one tile, with or without mips), sampled at the hit
     /// trilinearly at the pixel footprint's level; none: the checker below.
     std::shared_ptr<const MesoAlbedo> albedo;
+    /// A tangent-space normal map over one tile (meso/albedo.h, e.g. normalMapFromHeights),
+    /// sampled like the albedo: its normal (kern::dmNormalMapTangent, on the pixel's frame)
+    /// shades instead of the height field's; the shadow ray still leaves along the height
+    /// field's. None: the height field's normal.
+    std::shared_ptr<const MesoAlbedo> normalMap;
+    double normalScale = 1.0;  ///< multiplies the normal map's x and y (glTF's normalTexture.scale), |scale| <= kMaxNormalScale
+    bool normalGreenUp = true; ///< green towards the image's top (OpenGL, glTF); false: towards its bottom (DirectX)
     double ambient = 0.2;
     glm::dvec3 background{0.12, 0.13, 0.16};
     double checkerVoxels = 8;  ///< checker period of the albedo, voxels (0: no checker)
@@ -95,7 +103,8 @@ class MesoRenderer {
     /// warm-up < 0, a bad technique (iterations or linear steps < 1), a camera at or below the
     /// plane, non-positive tile size / depth / plane, shadows without shadow cones or with a
     /// light at or below the horizon (the plane's rules); an empty or too large base mesh, or
-    /// one with values that are not finite; an albedo whose words do not hold its levels.
+    /// one with values that are not finite; an albedo or normal map whose words do not hold its
+    /// levels, a normal-map scale that is not finite or beyond kMaxNormalScale.
     MesoRenderer(Context& context, const MesoMaps& maps, const MesoRenderOptions& options);
     ~MesoRenderer();
     MesoRenderer(const MesoRenderer&) = delete;
