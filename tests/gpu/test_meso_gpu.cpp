@@ -494,3 +494,45 @@ TEST_CASE("the normal map shades every hit as the CPU reads it, on the plane and
     CHECK_THROWS_WITH(dispmap::vulkan::MesoRenderer(ctx, shadowMaps(), o), Catch::Contains("the normal map's scale must be finite"));
     dmgpu::checkNoValidationMessages();
 }
+
+TEST_CASE("on Spot a normal map made from the heights shades as the height field does", "[meso]") {
+    // The frame's orientation on a curved base: the map's x along pS, its y (green up) along
+    // -pT's image direction, so that the map of the marched field's own heights gives about the
+    // height field's shading, and the same map read with the other green convention does not.
+    auto& ctx = dmgpu::context();
+    std::vector<float> waves;
+    for (int j = 0; j < 32; ++j)
+        for (int i = 0; i < 32; ++i)
+            waves.push_back(static_cast<float>(16.0 * (0.45 + 0.35 * std::sin(6.283185307179586 * 2 * i / 32) * std::cos(6.283185307179586 * 3 * j / 32))));
+    const dispmap::MesoHeightField field = dispmap::mesoHeightField(32, 32, 16, waves);
+    const MesoMaps maps = dispmap::buildMesoMaps(field, dispmap::MesoMapOptions{});
+    MesoRenderOptions o = spotScene(MesoMethod::Ddm);
+    o.checkerVoxels = 0;
+    // The map's slope needs a tile's world width: Spot's mean over its corners' |pS| and |pT|.
+    double tile = 0;
+    for (const dispmap::FrameVertex& v : o.base->corners) tile += 0.5 * (glm::length(v.pS) + glm::length(v.pT));
+    tile /= double(o.base->corners.size());
+    dispmap::HeightImage heights;
+    heights.width = heights.height = 32;
+    heights.values = field.h;
+    const MesoImage plain = dispmap::vulkan::renderMeso(ctx, maps, o);
+    o.normalMap = std::make_shared<const dispmap::MesoAlbedo>(
+        dispmap::mesoAlbedo(32, 32, dispmap::normalMapFromHeights(heights, o.depth / (16.0 * tile)), false));
+    const MesoImage mapped = dispmap::vulkan::renderMeso(ctx, maps, o);
+    o.normalGreenUp = false;
+    const MesoImage flipped = dispmap::vulkan::renderMeso(ctx, maps, o);
+    double right = 0, wrong = 0, n = 0;
+    for (std::size_t i = 0; i < plain.hit.size(); ++i) {
+        if (!plain.hit[i] || !mapped.hit[i] || !flipped.hit[i]) continue;
+        n += 1;
+        for (std::size_t k = 0; k < 3; ++k) {
+            right += std::abs(double(mapped.rgba[4 * i + k]) - double(plain.rgba[4 * i + k]));
+            wrong += std::abs(double(flipped.rgba[4 * i + k]) - double(plain.rgba[4 * i + k]));
+        }
+    }
+    INFO(n << " hit pixels; mean colour difference to the height field's shading: " << right / (3 * n) << " levels with the map, "
+           << wrong / (3 * n) << " with its green read the other way (tile " << tile << ")");
+    REQUIRE(n > 500);
+    CHECK(right < 0.5 * wrong);
+    dmgpu::checkNoValidationMessages();
+}
