@@ -118,6 +118,76 @@ TEST_CASE("a scene's normal map from its heights has the marched field's slopes"
     INFO("worst " << worst << " deg; the steepest normal leans " << steepest << " deg");
     CHECK(steepest > 20);
     CHECK(worst < 0.4); // 8-bit rounding of a unit vector: at most 0.39 deg
+    // On a base the tile's width is the base's mean: a base whose tiles are 0.4 wide gives the
+    // plane's map; one whose tiles are half as wide (a steeper map) does not.
+    FrameMesh base;
+    base.corners.assign(3, FrameVertex{});
+    for (FrameVertex& v : base.corners) {
+        v.pS = {0.3, 0.0, 0.0};
+        v.pT = {0.0, 0.5, 0.0};
+    }
+    CHECK(base.meanTileWidth() == Approx(0.4));
+    CHECK(buildMesoSceneNormals(s, &base)->words == map->words);
+    for (FrameVertex& v : base.corners) v.pS = v.pT = {0.0, 0.2, 0.0};
+    CHECK(buildMesoSceneNormals(s, &base)->words != map->words);
+    const FrameMesh empty;
+    CHECK_THROWS_WITH(buildMesoSceneNormals(s, &empty), Contains("the base has no tile width"));
+}
+
+TEST_CASE("a normal map from a larger height image sits on the filtered field's samples", "[meso][normals][scene]") {
+    // A 128^2 16-bit image filtered to the 32^2 field: field sample i averages image texels
+    // 4 i .. 4 i + 3, centred on 4 i + 1.5, and sits at s = i / 32, where the map's texel 4 i
+    // sits; so that texel must hold the slope at 4 i + 1.5 (unshifted, the normals are up to
+    // 8.3 deg off here). Heights times depth (12 of 16 layers) in voxels.
+    dmtest::TempDir dir("dispmap_normals_");
+    const auto v = [](double x, double y) { return 0.5 + 0.4 * std::sin(2 * kPi * 2 * x / 128) * std::cos(2 * kPi * y / 128); };
+    HeightImage img;
+    img.width = img.height = 128;
+    for (int y = 0; y < 128; ++y)
+        for (int x = 0; x < 128; ++x) img.values.push_back(static_cast<float>(v(x, y)));
+    writeHeightPng16((dir.path / "h.png").string(), img);
+    const MesoSceneDesc s = parseMesoScene(nlohmann::json::parse(R"({"mesostructure": {"height": "h.png", "size": 32, "layers": 16,
+        "depth": 12, "normals": "height"}, "tile": 0.4, "slab": 0.1, "effects": {"mips": false}})"), "n.json", dir.path.string());
+    const auto map = buildMesoSceneNormals(s);
+    REQUIRE((map && map->width() == 128 && map->levels() == 1));
+    const double slope = 12 * 0.1 / 16 / 0.4; // world height of v = 1 over a tile's width
+    double worst = 0, steepest = 0;
+    for (int j = 0; j < 32; ++j)
+        for (int i = 0; i < 32; ++i) {
+            const double x = 4 * i + 1.5, y = 4 * j + 1.5, e = 1e-4;
+            const double ds = 128 * (v(x + e, y) - v(x - e, y)) / (2 * e), dt = 128 * (v(x, y + e) - v(x, y - e)) / (2 * e);
+            const glm::dvec3 n = glm::normalize(glm::dvec3(-slope * ds, -slope * dt, 1.0));
+            steepest = std::max(steepest, degreesBetween(n, {0, 0, 1}));
+            worst = std::max(worst, degreesBetween(glm::dvec3(sampleMesoNormal<double>(*map, {i / 32.0, j / 32.0}, 0, 1, -1)), n));
+        }
+    INFO("worst " << worst << " deg; the steepest normal leans " << steepest << " deg");
+    CHECK(steepest > 30);
+    // 8-bit rounding (0.39 deg), the half-texel resampling's and the central difference's
+    // smoothing of a wave 64 texels long (about 0.1 %), 16-bit heights.
+    CHECK(worst < 0.5);
+}
+
+TEST_CASE("images one after the other are read from their own first word", "[meso][normals]") {
+    // The renderer's image buffer: the albedo's words, then the normal map's (dmMesoImage's
+    // `image`); read from there, the second image is itself.
+    const auto pattern = [](int w, int h, int seed) {
+        std::vector<std::uint8_t> px(4 * static_cast<std::size_t>(w) * static_cast<std::size_t>(h));
+        for (std::size_t i = 0; i < px.size(); ++i) px[i] = static_cast<std::uint8_t>((37 * i + 11 * static_cast<std::size_t>(seed)) % 256);
+        return px;
+    };
+    const MesoAlbedo first = mesoAlbedo(5, 3, pattern(5, 3, 1)), second = mesoAlbedo(8, 6, pattern(8, 6, 2));
+    MesoAlbedo both = first;
+    both.words.insert(both.words.end(), second.words.begin(), second.words.end());
+    kern::DmMesoMapsT<double> m;
+    m.image = &both;
+    std::mt19937 g(3);
+    std::uniform_real_distribution<double> u(-3.0, 3.0);
+    for (int i = 0; i < 200; ++i) {
+        const glm::dvec2 uv(u(g), u(g));
+        const double lod = std::abs(u(g));
+        CHECK(kern::dmMesoImage<double>(m, static_cast<int>(first.words.size()), uv, lod) == sampleMesoAlbedo<double>(second, uv, lod));
+        CHECK(kern::dmMesoImage<double>(m, 0, uv, lod) == sampleMesoAlbedo<double>(first, uv, lod));
+    }
 }
 
 TEST_CASE("a mesostructure scene's normal-map keys", "[meso][normals][scene][inputs]") {
@@ -133,8 +203,9 @@ TEST_CASE("a mesostructure scene's normal-map keys", "[meso][normals][scene][inp
     CHECK_FALSE(buildMesoSceneNormals(scene(R"({"mesostructure": {}})")));
     CHECK(scene(R"({"mesostructure": {}})").normalGreenUp);
     CHECK_THROWS_WITH(scene(R"({"mesostructure": {"normals": 3}})"), Contains("'mesostructure.normals' must be a file name"));
-    CHECK_THROWS_WITH(scene(R"({"mesostructure": {"normalScale": 1e9}})"), Contains("'mesostructure.normalScale' 1e+09 is not within +-100"));
-    CHECK_THROWS_WITH(scene(R"({"mesostructure": {"normalGreen": "left"}})"), Contains("'mesostructure.normalGreen' must be \"up\""));
+    CHECK_THROWS_WITH(scene(R"({"mesostructure": {"normals": "n.png", "normalScale": 1e9}})"), Contains("'mesostructure.normalScale' 1e+09 is not within +-100"));
+    CHECK_THROWS_WITH(scene(R"({"mesostructure": {"normals": "n.png", "normalGreen": "left"}})"), Contains("'mesostructure.normalGreen' must be \"up\""));
+    CHECK_THROWS_WITH(scene(R"({"mesostructure": {"normalGreen": "up"}})"), Contains("'mesostructure.normalGreen' without 'mesostructure.normals'"));
     CHECK_THROWS_AS(buildMesoSceneNormals(scene(R"({"mesostructure": {"normals": "missing.png"}})")), FileError);
     // Heights from an image: at its full resolution, not the marched size.
     HeightImage big = waves(128, 128, 0.5);

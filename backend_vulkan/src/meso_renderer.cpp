@@ -104,6 +104,12 @@ void validate(const Context& ctx, const MesoMaps& maps, const MesoRenderOptions&
     };
     checkImage(o.albedo, "albedo");
     checkImage(o.normalMap, "normal map");
+    // The two images share one storage buffer (binding 7), bound whole.
+    const std::uint64_t imageBytes = 4 * (std::uint64_t{o.albedo ? o.albedo->words.size() : 0} + (o.normalMap ? o.normalMap->words.size() : 0));
+    if (imageBytes > ctx.properties().limits.maxStorageBufferRange)
+        throw ArgumentError("meso renderer: the albedo and normal map take " + std::to_string(imageBytes) +
+                            " bytes, beyond the device's maxStorageBufferRange (" + std::to_string(ctx.properties().limits.maxStorageBufferRange) +
+                            "): smaller images, or no mips");
     if (o.normalMap && !(std::isfinite(o.normalScale) && std::abs(o.normalScale) <= kMaxNormalScale))
         throw ArgumentError("meso renderer: the normal map's scale must be finite and within +-" + dispmap::detail::drawNumber(kMaxNormalScale));
     if (o.shadows) {

@@ -66,7 +66,7 @@ int renderMesoCommand(const RenderArgs& a, const nlohmann::json& j) {
     vulkan::MesoRenderOptions o = mesoSceneRenderOptions(s);
     o.base = buildMesoSceneBase(s);
     o.albedo = buildMesoSceneAlbedo(s);
-    o.normalMap = buildMesoSceneNormals(s);
+    o.normalMap = buildMesoSceneNormals(s, o.base.get());
     o.frames = a.frames;
     const vulkan::MesoImage im = vulkan::renderMeso(*ctx, maps, o);
     if (!a.output.empty()) writeRgbaPng(a.output, im.width, im.height, im.rgba.data());

@@ -75,7 +75,7 @@ Viewer::Viewer(const ViewerOptions& options) : options_(options) {
             mesoMaps_ = dispmap::buildMesoSceneMaps(mesoScene_);
             mesoBase_ = dispmap::buildMesoSceneBase(mesoScene_);
             mesoAlbedo_ = dispmap::buildMesoSceneAlbedo(mesoScene_);
-            mesoNormals_ = dispmap::buildMesoSceneNormals(mesoScene_);
+            mesoNormals_ = dispmap::buildMesoSceneNormals(mesoScene_, mesoBase_.get());
             width = mesoScene_.width;
             height = mesoScene_.height;
             orbit_ = Orbit::around(mesoScene_.eye, mesoScene_.target, mesoScene_.up);

@@ -5,7 +5,7 @@
 #extension GL_GOOGLE_include_directive : require
 #define DM_MESO_SET 0
 #define DM_MESO_BINDING 0
-#define DM_MESO_ALBEDO_BINDING 7 // declared by march.glsl, not read here (5 and 6 are the rays and results)
+#define DM_MESO_IMAGE_BINDING 7  // declared by march.glsl, not read here (5 and 6 are the rays and results)
 #include "march.glsl"
 
 layout(local_size_x = 64) in;

@@ -438,8 +438,9 @@ TEST_CASE("the albedo is the CPU's at every hit; its mips remove the aliasing", 
 TEST_CASE("the normal map shades every hit as the CPU reads it, on the plane and on a base", "[meso]") {
     auto& ctx = dmgpu::context();
     const bool strict = dispmap::parity::strictFor(ctx, dispmap::parity::Options{});
-    // A 7 x 5 map of random heights (slopes up to about 4), one level: at each hit the shading
-    // normal is the map's bilinear texel read at the hit, as the CPU reads it.
+    // A 7 x 5 map of random heights (slopes up to about 1), one level: at each hit the shading
+    // normal is the map's bilinear texel read at the hit, as the CPU reads it. With an albedo
+    // too, the map's words start after the albedo's in the one image buffer.
     dispmap::HeightImage heights;
     heights.width = 7;
     heights.height = 5;
@@ -451,17 +452,19 @@ TEST_CASE("the normal map shades every hit as the CPU reads it, on the plane and
         bool grid;
         double scale;
         bool greenUp;
+        bool albedo;
     };
-    for (const Case c : {Case{false, 1.0, true}, Case{false, 0.5, false}, Case{true, 1.0, true}}) {
+    for (const Case c : {Case{false, 1.0, true, false}, Case{false, 0.5, false, false}, Case{false, 1.0, true, true}, Case{true, 1.0, true, false}}) {
         MesoRenderOptions o = smallScene(MesoMethod::Ddm);
         if (c.grid) o.base = flatGridBase();
-        o.checkerVoxels = 0; // the plain albedo (0.95, 0.85, 0.7)
+        o.checkerVoxels = 0; // without an albedo image the plain colour (0.95, 0.85, 0.7)
+        if (c.albedo) o.albedo = albedoOf(6, 4, false, false);
         o.normalMap = map;
         o.normalScale = c.scale;
         o.normalGreenUp = c.greenUp;
         const MesoImage img = dispmap::vulkan::renderMeso(ctx, shadowMaps(), o);
         const glm::vec3 light = glm::normalize(glm::vec3(o.lightDirection));
-        const glm::vec3 albedo(0.95f, 0.85f, 0.7f);
+        const glm::vec3 plain(0.95f, 0.85f, 0.7f);
         std::size_t hits = 0, close = 0;
         for (std::size_t i = 0; i < img.hit.size(); ++i) {
             if (!img.hit[i]) continue;
@@ -470,6 +473,9 @@ TEST_CASE("the normal map shades every hit as the CPU reads it, on the plane and
             const glm::vec3 n = dispmap::sampleMesoNormal<float>(*map, glm::dvec2(img.hitPoint[i].x / 16.0f, img.hitPoint[i].y / 16.0f), 0.0,
                                                                  c.scale, c.greenUp ? -1.0 : 1.0);
             const float shade = dispmap::kern::dmMesoShade<float>(1.0f, n, light, float(o.ambient), 1.0f);
+            const glm::vec3 albedo =
+                c.albedo ? glm::vec3(dispmap::sampleMesoAlbedo<float>(*o.albedo, glm::dvec2(img.hitPoint[i].x / 16.0f, img.hitPoint[i].y / 16.0f), 0.0))
+                         : plain;
             double worst = 0;
             for (int k = 0; k < 3; ++k)
                 worst = std::max(worst, std::abs(double(img.rgba[4 * i + static_cast<std::size_t>(k)]) - 255.0 * double(albedo[k] * shade)));
@@ -477,7 +483,8 @@ TEST_CASE("the normal map shades every hit as the CPU reads it, on the plane and
             // rounding moves a colour by up to a level.
             close += worst <= (c.grid ? 1.01 : 0.51) ? 1u : 0u;
         }
-        INFO((c.grid ? "grid" : "plane") << ", scale " << c.scale << (c.greenUp ? ", green up: " : ", green down: ") << close << " of " << hits
+        INFO((c.grid ? "grid" : "plane") << ", scale " << c.scale << (c.greenUp ? ", green up" : ", green down") << (c.albedo ? ", with an albedo: " : ": ")
+                                         << close << " of " << hits
                                          << " hit pixels match the CPU's colour");
         REQUIRE(hits > 500);
         if (strict && !c.grid) CHECK(close == hits);
@@ -508,10 +515,8 @@ TEST_CASE("on Spot a normal map made from the heights shades as the height field
     const MesoMaps maps = dispmap::buildMesoMaps(field, dispmap::MesoMapOptions{});
     MesoRenderOptions o = spotScene(MesoMethod::Ddm);
     o.checkerVoxels = 0;
-    // The map's slope needs a tile's world width: Spot's mean over its corners' |pS| and |pT|.
-    double tile = 0;
-    for (const dispmap::FrameVertex& v : o.base->corners) tile += 0.5 * (glm::length(v.pS) + glm::length(v.pT));
-    tile /= double(o.base->corners.size());
+    // The map's slope needs a tile's world width: Spot's mean (as a scene's "normals": "height").
+    const double tile = o.base->meanTileWidth();
     dispmap::HeightImage heights;
     heights.width = heights.height = 32;
     heights.values = field.h;

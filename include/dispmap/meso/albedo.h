@@ -30,8 +30,9 @@ namespace dispmap {
 /// Largest side of an albedo image (texels): a 4096^2 image and its levels take 85 MiB.
 inline constexpr int kMaxMesoAlbedoSize = 4096;
 
-/// Largest |scale| of a normal map's x and y (kern::dmNormalMapTangent): beyond it every
-/// perturbed normal lies within a degree of the tangent plane.
+/// Largest |scale| of a normal map's x and y (kern::dmNormalMapTangent): at 100 a texel one
+/// 8-bit step off flat already leans 68 degrees from the normal, so larger scales only
+/// magnify rounding.
 inline constexpr double kMaxNormalScale = 100.0;
 
 struct MesoAlbedo {
@@ -103,7 +104,7 @@ inline MesoAlbedo mesoAlbedo(int width, int height, const std::vector<std::uint8
 
 /// A tangent-space normal map of a height image over one tile (RGBA8, rows as the image's,
 /// for mesoAlbedo): the surface z = slope v(s, t), v the image's values, s and t in tiles and
-/// z in tile widths (slope: the world height of white over the world width of a tile), its
+/// z in tile widths (slope: the world height of one unit of v over the world width of a tile), its
 /// normal (-slope dv/ds, -slope dv/dt, 1) normalised, the derivatives central differences of
 /// the wrapped image at each texel. Encoded as OpenGL and glTF do: (x, y, z) -> (r, g, b) =
 /// 255 (n + 1) / 2 rounded, with y towards the image's top (green up: decode with greenT = -1,

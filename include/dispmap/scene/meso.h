@@ -29,7 +29,8 @@
 // x and y, "normalGreen" "up" as OpenGL and glTF or "down" as DirectX); or "height": the
 // normal map of the height image at its full resolution (normalMapFromHeights; the function's
 // field without an image), so that a coarse marched field is shaded with the image's fine
-// slopes, at the plane's proportions (white's depth slab / layers over `tile`).
+// slopes: white's depth (slab depth / layers) over the tile's width (`tile` on the plane, the
+// base's mean tile width on a base).
 //
 // Effects, and only those: the maps the technique reads are the only maps built (a relief
 // scene builds no distance map and no DDM; shadow cones only with "shadows"), and the
@@ -194,6 +195,34 @@ inline HeightImage downsampleHeightImage(const HeightImage& img, int size) {
     return small;
 }
 
+/// The height image as the normal map of a scene's "normals": "height" sees it: the part
+/// that downsampleHeightImage(img, size) filters (fx size x fy size texels, fx = width / size),
+/// resampled bilinearly (wrapping in that part) (fx - 1) / 2 and (fy - 1) / 2 texels on, so that
+/// texel (fx i, fy j), which sits on the field's sample (i, j), holds the centre of the block
+/// the sample averages. The image itself when size is 0 or its width.
+inline HeightImage fieldAlignedHeightImage(const HeightImage& img, int size) {
+    if (size == 0 || size == img.width) return img;
+    const int fx = size > 0 ? img.width / size : 0, fy = size > 0 ? img.height / size : 0, w = fx * size, h = fy * size;
+    if (fx < 1 || fy < 1)
+        throw ArgumentError("fieldAlignedHeightImage: size " + std::to_string(size) + ": the image (" + std::to_string(img.width) + " x " +
+                            std::to_string(img.height) + ") is smaller");
+    const double ox = 0.5 * (fx - 1), oy = 0.5 * (fy - 1);
+    HeightImage out;
+    out.width = w;
+    out.height = h;
+    out.values.resize(static_cast<std::size_t>(w) * static_cast<std::size_t>(h));
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const double px = x + ox, py = y + oy;
+            const int x0 = static_cast<int>(std::floor(px)), y0 = static_cast<int>(std::floor(py));
+            const double fxr = px - x0, fyr = py - y0;
+            const auto at = [&](int a, int b) { return double(img.at(a % w, b % h)); };
+            const double v = (1 - fyr) * ((1 - fxr) * at(x0, y0) + fxr * at(x0 + 1, y0)) + fyr * ((1 - fxr) * at(x0, y0 + 1) + fxr * at(x0 + 1, y0 + 1));
+            out.values[static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x)] = static_cast<float>(v);
+        }
+    return out;
+}
+
 namespace detail {
 // A string from the input (a key, a name) for a message, cut to about 80 characters.
 inline std::string mesoExcerpt(const std::string& text) { return excerpt(text); }
@@ -319,6 +348,8 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
         if (m["normals"].is_string() && m["normals"].get_ref<const std::string&>() == "height") s.normalsFromHeight = true;
         else s.normalsImage = path("normals");
     }
+    for (const char* key : {"normalScale", "normalGreen"})
+        if (m.contains(key) && !m.contains("normals")) throw fail(std::string("'mesostructure.") + key + "' without 'mesostructure.normals'");
     s.normalScale = mesoNumber(m, "normalScale", s.normalScale, name, "mesostructure.");
     if (!(std::abs(s.normalScale) <= kMaxNormalScale))
         throw fail("'mesostructure.normalScale' " + detail::drawNumber(s.normalScale) + " is not within +-" + detail::drawNumber(kMaxNormalScale));
@@ -472,10 +503,12 @@ inline std::shared_ptr<const MesoAlbedo> buildMesoSceneAlbedo(const MesoSceneDes
 
 /// The scene's normal map ("mesostructure.normals", with its mips unless "effects.mips" is
 /// false), or none: the PNG, or with "height" normalMapFromHeights of the height image at its
-/// full resolution (the function's field at `size` without an image) at the plane's
-/// proportions. FileError for an image that cannot be read, ArgumentError (naming the scene)
-/// for one larger than kMaxMesoAlbedoSize.
-inline std::shared_ptr<const MesoAlbedo> buildMesoSceneNormals(const MesoSceneDesc& s) {
+/// full resolution (the function's field at `size` without an image), the slope from white's
+/// depth (slab depth / layers) over a tile's width: `tile` on the plane, the base's
+/// meanTileWidth() when `base` (the scene's, buildMesoSceneBase) is given. FileError for an
+/// image that cannot be read, ArgumentError (naming the scene) for one larger than
+/// kMaxMesoAlbedoSize or a base without corners.
+inline std::shared_ptr<const MesoAlbedo> buildMesoSceneNormals(const MesoSceneDesc& s, const FrameMesh* base = nullptr) {
     try {
         if (!s.normalsImage.empty()) {
             const RgbaImage img = readRgbaPng(s.normalsImage, kMaxMesoAlbedoSize);
@@ -486,15 +519,17 @@ inline std::shared_ptr<const MesoAlbedo> buildMesoSceneNormals(const MesoSceneDe
         HeightImage heights;
         const double depth = s.depth > 0 ? s.depth : 0.875 * s.layers;
         if (!s.heightImage.empty()) {
-            heights = readHeightPng(s.heightImage, kMaxMesoAlbedoSize, " (the largest normal map made from heights)");
-            for (float& v : heights.values) v = static_cast<float>(double(v) * depth);
+            heights = fieldAlignedHeightImage(readHeightPng(s.heightImage, kMaxMesoAlbedoSize, " (the largest normal map made from heights)"), s.size);
+            for (float& v : heights.values) v = static_cast<float>(std::clamp(double(v), 0.0, 1.0) * depth);
         } else {
             const MesoHeightField f = mesoFunctionField(s.function, s.size, s.layers);
             heights.width = f.width;
             heights.height = f.height;
             heights.values = f.h;
         }
-        const std::vector<std::uint8_t> rgba = normalMapFromHeights(heights, s.slab / (s.layers * s.tile));
+        const double tile = base ? base->meanTileWidth() : s.tile;
+        if (!(tile > 0)) throw ArgumentError("the base has no tile width to take slopes over");
+        const std::vector<std::uint8_t> rgba = normalMapFromHeights(heights, s.slab / (s.layers * tile));
         return std::make_shared<const MesoAlbedo>(mesoAlbedo(heights.width, heights.height, rgba, s.albedoMips));
     } catch (const ArgumentError& e) {
         throw ArgumentError(s.name + ": 'mesostructure.normals': " + e.what());

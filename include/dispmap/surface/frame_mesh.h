@@ -46,6 +46,14 @@ struct FrameVertex {
 struct FrameMesh {
     std::vector<FrameVertex> corners;
     int triangleCount() const { return static_cast<int>(corners.size() / 3); }
+    /// The world width of a tile, averaged over the corners: the mean of (|pS| + |pT|) / 2
+    /// (0 without corners). What a normal map made from heights takes as the tile's width on
+    /// this base (scene/meso.h, buildMesoSceneNormals).
+    double meanTileWidth() const {
+        double sum = 0;
+        for (const FrameVertex& v : corners) sum += 0.5 * (glm::length(v.pS) + glm::length(v.pT));
+        return corners.empty() ? 0.0 : sum / static_cast<double>(corners.size());
+    }
 };
 
 enum class FramePlacement { Uv, Face };
