@@ -121,7 +121,9 @@ Stats measure(const std::vector<Pixel>& px, const std::function<MesoHit(const gl
 
 // The fragment shader's frame time for the table's camera: voxel space is world space scaled
 // by tileSize / W (cubic voxels) with the slab's top at z = 0.
-double gpuFrameMs(vulkan::Context& ctx, const MesoScene& scene, const MesoMaps& m, const MesoTechnique& t, int frames) {
+// With an albedo and a normal map when given (the shading row).
+double gpuFrameMs(vulkan::Context& ctx, const MesoScene& scene, const MesoMaps& m, const MesoTechnique& t, int frames,
+                  std::shared_ptr<const MesoAlbedo> albedo = nullptr, std::shared_ptr<const MesoAlbedo> normalMap = nullptr) {
     const MesoHeightField& f = scene.field;
     vulkan::MesoRenderOptions o;
     o.width = scene.camera.width;
@@ -137,6 +139,8 @@ double gpuFrameMs(vulkan::Context& ctx, const MesoScene& scene, const MesoMaps& 
     o.quads = 8;
     o.technique = t;
     o.frames = frames;
+    o.albedo = std::move(albedo);
+    o.normalMap = std::move(normalMap);
     return vulkan::renderMeso(ctx, m, o).gpuMs;
 }
 
@@ -357,6 +361,29 @@ void printMesoTable(std::ostream& out, const MesoTableArgs& args) {
             for (const char* shown : {"distance map, 16 steps", "distance map, eps 0.02", "conservative isotropic + quadric",
                                       "DDM 4x1", "DDM 4x1 + quadric", "DDM 8x1 + quadric", "relief 32+6", "POM 32"})
                 if (row.label == shown) pictures.push_back({row.label, std::move(st)});
+        }
+        if (ctx) {
+            // What the shading effects cost: the DDM 4x1 + quadric frame with the height
+            // field's normal, then with an albedo (the heights as grey), a normal map of the
+            // heights (normalMapFromHeights at the table's cubic voxels: one voxel of height
+            // over W voxels a tile), and both, each with its mips; one run, interleaved.
+            HeightImage heights{hf.width, hf.height, hf.h};
+            std::vector<std::uint8_t> grey(4 * hf.h.size(), 255);
+            for (std::size_t i = 0; i < hf.h.size(); ++i)
+                grey[4 * i] = grey[4 * i + 1] = grey[4 * i + 2] = static_cast<std::uint8_t>(std::lround(255.0 * std::clamp(double(hf.h[i]) / hf.layers, 0.0, 1.0)));
+            const auto albedo = std::make_shared<const MesoAlbedo>(mesoAlbedo(hf.width, hf.height, grey));
+            const auto normals = std::make_shared<const MesoAlbedo>(mesoAlbedo(hf.width, hf.height, normalMapFromHeights(heights, 1.0 / hf.width)));
+            const MesoRow& ddm = *std::find_if(rows.begin(), rows.end(), [](const MesoRow& r) { return r.label == "DDM 4x1 + quadric"; });
+            std::vector<double> runs[4];
+            for (int round = 0; round < 5; ++round)
+                for (std::size_t k = 0; k < 4; ++k)
+                    runs[k].push_back(gpuFrameMs(*ctx, scene, maps.at("4x1"), ddm.technique, args.gpuFrames, (k & 1) ? albedo : nullptr,
+                                                 (k & 2) ? normals : nullptr));
+            double ms[4];
+            for (std::size_t k = 0; k < 4; ++k) ms[k] = percentile(runs[k], 0.5);
+            out << "Shading on '" << scene.name << "' (DDM 4x1 + quadric, GPU ms, images of " << hf.width << " x " << hf.height
+                << " with mips): height-field normal " << std::setprecision(2) << ms[0] << "; + albedo " << ms[1] << " (" << ms[1] / ms[0]
+                << "x); + normal map " << ms[2] << " (" << ms[2] / ms[0] << "x); + both " << ms[3] << " (" << ms[3] / ms[0] << "x)\n";
         }
         // Compression (Table 3): per cone set, the uncompressed DDM against grid + atlas.
         for (const auto& [name, m] : maps)
