@@ -6,8 +6,8 @@
 // for, a shadow ray through the DDM's shadow cones; the colour is the albedo image's at the hit
 // (trilinear over its mips, the level from the pixel's footprint) or a checker; the shading
 // normal is the height field's or, when the scene has one, the normal map's at the hit
-// (trilinear in the same way, dmNormalMapTangent, on the pixel's frame). On a base mesh the depth is the hit's
-// (dmFramePoint), so the detail occludes and is occluded where it is, and a ray that misses
+// (trilinear in the same way, dmNormalMapTangent, on the pixel's frame). On a base mesh the
+// depth is the hit's (dmFramePoint), so the detail occludes and is occluded where it is, and a ray that misses
 // (it leaves through the top, e.g. from a back face) writes the far plane: what lies behind
 // it shows through. Every formula is a kernel (kernels/meso.h, kernels/meso_shade.h);
 // march.glsl holds the loops.

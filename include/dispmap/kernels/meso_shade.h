@@ -1,14 +1,14 @@
 #pragma once
 // Kernels of the mesostructure renderer (backend_vulkan MesoRenderer, shaders/meso/): the
 // pixel ray's entry into voxel space, the normal of the bilinear height field at a hit, the
-// shadow ray's origin, a normal map's normal and the shading. Voxel space as in kernels/meso.h. On the plane z = 0
-// (tangent +x, bitangent +y, normal +z) tangent space is world space and voxelsPerUnit =
-// (W / tile size, H / tile size, L / depth) in world units. On any other base (a curved
-// surface, Donnelly §8.3.1: locally planar) each pixel has a frame (dmFrameCoordinates): the
-// world vectors pS = dP/ds and pT = dP/dt along the mesostructure's texture coordinates (s, t),
-// one unit a tile, and the unit normal n; there voxelsPerUnit = (W, H, L / depth) (voxels per
-// texture unit in s and t, per world unit along n), and dmFramePoint / dmFrameNormal take the
-// hit and the height field's normal back to the world.
+// shadow ray's origin, a normal map's normal and the shading. Voxel space as in
+// kernels/meso.h. On the plane z = 0 (tangent +x, bitangent +y, normal +z) tangent space is
+// world space and voxelsPerUnit = (W / tile size, H / tile size, L / depth) in world units.
+// On any other base (a curved surface, Donnelly §8.3.1: locally planar) each pixel has a frame
+// (dmFrameCoordinates): the world vectors pS = dP/ds and pT = dP/dt along the mesostructure's
+// texture coordinates (s, t), one unit a tile, and the unit normal n; there voxelsPerUnit =
+// (W, H, L / depth) (voxels per texture unit in s and t, per world unit along n), and
+// dmFramePoint / dmFrameNormal take the hit and the height field's normal back to the world.
 #include "dispmap/kernels/sum.h"
 #include "dispmap/kernels/prelude.h"
 

@@ -1,12 +1,12 @@
 #pragma once
 // MesoAlbedo: an RGBA8 image over one tile: the colour of a mesostructure, or its normal map
-// (tangent space, normalMapFromHeights below; kern::dmNormalMapTangent reads a texel) (it repeats with the
-// height field: at texture coordinate (s, t) in tiles, the image's texel (s w, t h) with w x h
-// its size, wrapping; texel (x, y) sits on the height field's sample (x W / w, y H / h), so a
-// colour image of the height image's size colours each height sample with its own pixel),
-// with box-filtered mip levels for the footprint of a pixel (a normal map's levels average the
-// encoded vectors, which the reader scales back to unit length). Sampled by
-// kern::dmMesoImage (kernels/meso_march.h) on the CPU (sampleMesoAlbedo) and in the
+// (tangent space, normalMapFromHeights below; kern::dmNormalMapTangent reads a texel). It
+// repeats with the height field: at texture coordinate (s, t) in tiles, the image's texel
+// (s w, t h) with w x h its size, wrapping; texel (x, y) sits on the height field's sample
+// (x W / w, y H / h), so a colour image of the height image's size colours each height sample
+// with its own pixel. It has box-filtered mip levels for the footprint of a pixel (a normal
+// map's levels average the encoded vectors, which the reader scales back to unit length).
+// Sampled by kern::dmMesoImage (kernels/meso_march.h) on the CPU (sampleMesoAlbedo) and in the
 // MesoRenderer's fragment shader, from one array of 32-bit words:
 //   word 0                  the level count n
 //   words 1 + 4 l .. +3     level l: offset of its first texel word, width, height, 0

@@ -330,8 +330,8 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
     const auto fail = [&](const std::string& why) { return ArgumentError(name + ": " + why); };
     mesoKeys(j, name, "", {"mesostructure", "camera", "light", "resolution", "tile", "slab", "checker", "effects", "base"});
     const nlohmann::json& m = j["mesostructure"];
-    mesoKeys(m, name, "mesostructure", {"height", "function", "size", "layers", "depth", "cones", "block", "albedo", "normals",
-                                                 "normalScale", "normalGreen"});
+    mesoKeys(m, name, "mesostructure",
+             {"height", "function", "size", "layers", "depth", "cones", "block", "albedo", "normals", "normalScale", "normalGreen"});
     const auto path = [&](const char* key) {
         if (!m[key].is_string()) throw fail(std::string("'mesostructure.") + key + "' must be a file name");
         const std::string& h = m[key].get_ref<const std::string&>();
