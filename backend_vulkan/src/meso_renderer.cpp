@@ -47,6 +47,10 @@ constexpr std::uint32_t kTargets = 5;
 const VkFormat kFormats[kTargets] = {VK_FORMAT_R8G8B8A8_UNORM, VK_FORMAT_R32G32B32A32_SFLOAT, VK_FORMAT_R32G32B32A32_SFLOAT,
                                      VK_FORMAT_R32G32B32A32_SFLOAT, VK_FORMAT_R32G32B32A32_UINT};
 
+// The images share one storage buffer (binding 7), bound whole: the albedo's words from 0 on,
+// the normal map's from this word on (params.dims2.y).
+std::size_t normalMapFirstWord(const MesoRenderOptions& o) { return o.albedo ? o.albedo->words.size() : 0; }
+
 void validate(const Context& ctx, const MesoMaps& maps, const MesoRenderOptions& o) {
     if (o.width < 1 || o.height < 1 || o.width > 4096 || o.height > 4096)
         throw ArgumentError("meso renderer: image size " + std::to_string(o.width) + " x " + std::to_string(o.height) +
@@ -104,8 +108,7 @@ void validate(const Context& ctx, const MesoMaps& maps, const MesoRenderOptions&
     };
     checkImage(o.albedo, "albedo");
     checkImage(o.normalMap, "normal map");
-    // The two images share one storage buffer (binding 7), bound whole.
-    const std::uint64_t imageBytes = 4 * (std::uint64_t{o.albedo ? o.albedo->words.size() : 0} + (o.normalMap ? o.normalMap->words.size() : 0));
+    const std::uint64_t imageBytes = 4 * (std::uint64_t{normalMapFirstWord(o)} + (o.normalMap ? o.normalMap->words.size() : 0));
     if (imageBytes > ctx.properties().limits.maxStorageBufferRange)
         throw ArgumentError("meso renderer: the albedo and normal map take " + std::to_string(imageBytes) +
                             " bytes, beyond the device's maxStorageBufferRange (" + std::to_string(ctx.properties().limits.maxStorageBufferRange) +
@@ -174,8 +177,7 @@ struct MesoRenderer::Impl {
         p.background = glm::vec4(glm::vec3(options.background), 1.0f);
         p.dims0 = glm::ivec4(s.width, s.height, s.layers, s.block);
         p.dims1 = glm::ivec4(s.gx, s.gy, s.gz, s.coneM);
-        const int normalMapWord = options.albedo && options.normalMap ? static_cast<int>(options.albedo->words.size()) : 0;
-        p.dims2 = glm::ivec4(s.coneN, normalMapWord, 0, 0);
+        p.dims2 = glm::ivec4(s.coneN, static_cast<int>(normalMapFirstWord(options)), 0, 0);
         p.tol = glm::vec4(s.tol, float(options.shadowOffset), float(options.normalScale), options.normalGreenUp ? -1.0f : 1.0f);
         params = std::make_unique<Buffer>(ctx, sizeof p);
         params->upload(&p, sizeof p);
@@ -188,8 +190,7 @@ struct MesoRenderer::Impl {
             }
         frame = std::make_unique<Buffer>(ctx, corners.size() * sizeof(GpuFrameVertex));
         frame->upload(corners.data(), corners.size() * sizeof(GpuFrameVertex));
-        // The images one after the other: the albedo's words from 0 on, the normal map's after
-        // them (normalMapWord); none: a placeholder.
+        // The images one after the other (normalMapFirstWord); none: a placeholder.
         std::vector<std::uint32_t> words;
         if (options.albedo) words = options.albedo->words;
         if (options.normalMap) words.insert(words.end(), options.normalMap->words.begin(), options.normalMap->words.end());

@@ -366,7 +366,8 @@ void printMesoTable(std::ostream& out, const MesoTableArgs& args) {
             // What the shading effects cost: the DDM 4x1 + quadric frame with the height
             // field's normal, then with an albedo (the heights as grey), a normal map of the
             // heights (normalMapFromHeights at the table's cubic voxels: one voxel of height
-            // over W voxels a tile), and both, each with its mips; one run, interleaved.
+            // over W voxels a tile), and both, each with its mips; five rounds, interleaved, the
+            // median of each.
             HeightImage heights{hf.width, hf.height, hf.h};
             std::vector<std::uint8_t> grey(4 * hf.h.size(), 255);
             for (std::size_t i = 0; i < hf.h.size(); ++i)

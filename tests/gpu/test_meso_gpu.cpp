@@ -32,6 +32,7 @@ TEST_CASE("every mesostructure marcher agrees bit for bit between C++ and the co
 
 // --- The renderer ---------------------------------------------------------------------------
 #include "dispmap/kernels/meso_shade.h"
+#include "dispmap/scene/meso.h"
 #include "dispmap/vulkan/meso_renderer.h"
 
 namespace {
@@ -507,11 +508,7 @@ TEST_CASE("on Spot a normal map made from the heights shades as the height field
     // -pT's image direction, so that the map of the marched field's own heights gives about the
     // height field's shading, and the same map read with the other green convention does not.
     auto& ctx = dmgpu::context();
-    std::vector<float> waves;
-    for (int j = 0; j < 32; ++j)
-        for (int i = 0; i < 32; ++i)
-            waves.push_back(static_cast<float>(16.0 * (0.45 + 0.35 * std::sin(6.283185307179586 * 2 * i / 32) * std::cos(6.283185307179586 * 3 * j / 32))));
-    const dispmap::MesoHeightField field = dispmap::mesoHeightField(32, 32, 16, waves);
+    const dispmap::MesoHeightField field = dispmap::mesoFunctionField("waves", 32, 16);
     const MesoMaps maps = dispmap::buildMesoMaps(field, dispmap::MesoMapOptions{});
     MesoRenderOptions o = spotScene(MesoMethod::Ddm);
     o.checkerVoxels = 0;
