@@ -1,6 +1,7 @@
 # Every header of the GLM-only layers (kernels/, core/, meso/) compiles on its own and pulls in
 # nothing but the C++ standard library and GLM, plus oneTBB in core/ and meso/ (core/parallel.h:
-# the threads of the builders); kernels/ stays standard library and GLM alone. Run as a test:
+# the threads of the builders) and the POSIX <sys/mman.h> in core/ (core/memory.h, on Linux
+# only: the huge-page hint); kernels/ stays standard library and GLM alone. Run as a test:
 #   cmake -DSOURCE_DIR=<repo> -DCXX=<compiler> -DWORK_DIR=<scratch> -P cmake/check_glm_only.cmake
 # The system include directory holds every other dependency too (OpenSubdiv, libpng, ...), so
 # "only GLM on the include path" is checked on what the preprocessor opens: the files each
@@ -47,8 +48,8 @@ foreach(h IN LISTS headers)
   foreach(line IN LISTS lines)
     if(line MATCHES "<([^>]+)>")
       set(n ${CMAKE_MATCH_1})
-      if(n MATCHES "^tbb/" AND h MATCHES "/kernels/[^/]+\\.h$")
-        message(NOTICE "error: the kernel header ${h} includes <${n}>: kernels/ needs the standard library and GLM only")
+      if((n MATCHES "^tbb/" AND h MATCHES "/kernels/[^/]+\\.h$") OR (n STREQUAL "sys/mman.h" AND NOT h MATCHES "/core/memory\\.h$"))
+        message(NOTICE "error: ${h} includes <${n}>: kernels/ needs the standard library and GLM only, and <sys/mman.h> belongs to core/memory.h alone")
         math(EXPR failures "${failures} + 1")
       endif()
       list(APPEND names ${n})
@@ -57,7 +58,7 @@ foreach(h IN LISTS headers)
 endforeach()
 list(REMOVE_DUPLICATES names)
 foreach(n IN LISTS names)
-  if(n MATCHES "^[a-z_0-9]+$" OR n MATCHES "^glm/" OR n MATCHES "^tbb/")
+  if(n MATCHES "^[a-z_0-9]+$" OR n MATCHES "^glm/" OR n MATCHES "^tbb/" OR n STREQUAL "sys/mman.h")
     string(APPEND ref "#include <${n}>\n")
   else()
     message(NOTICE "error: a GLM-only header includes <${n}>, which is neither standard, GLM nor oneTBB")

@@ -4,7 +4,7 @@
 #
 # layer     may include dispmap/...              and third-party headers
 # kernels   kernels                              glm
-# core      kernels core                         glm, tbb
+# core      kernels core                         glm, tbb, sys/mman.h (Linux, core/memory.h)
 # meso      kernels core meso                    glm, tbb
 # surface   kernels core surface                 glm, opensubdiv, tinyobjloader
 # io        kernels core meso io                 glm, png, zlib, OpenEXR, Imath, tiffio.h
@@ -23,7 +23,7 @@ set(allowed_scene kernels core meso surface io scene)
 set(allowed_vulkan kernels core meso surface vulkan)
 set(allowed_bake kernels core meso surface io bake)
 set(third_kernels "^glm/")
-set(third_core "^(glm|tbb)/")
+set(third_core "^(glm|tbb)/|^sys/mman\\.h$")
 set(third_meso "^(glm|tbb)/")
 set(third_surface "^(glm|opensubdiv)/|^tiny_obj_loader\\.h$")
 set(third_io "^(glm|OpenEXR|Imath)/|^(png|zlib|tiffio)\\.h$")

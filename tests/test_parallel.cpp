@@ -42,7 +42,8 @@ bool sameTiles(const TileSet& a, const TileSet& b) {
 
 bool sameMesh(const TriangleMesh& a, const TriangleMesh& b) {
     return sameBits(a.positions, b.positions) && sameBits(a.normals, b.normals) && a.faces == b.faces && sameBits(a.uvs, b.uvs) &&
-           sameBits(a.resolutions, b.resolutions) && a.triangles == b.triangles && a.triangleFaces == b.triangleFaces;
+           sameBits(a.resolutions, b.resolutions) && a.triangles == b.triangles && a.triangleFaces == b.triangleFaces &&
+           sameBits(a.triangleUVs, b.triangleUVs);
 }
 
 // The pre-2026-12 cone test (atan2 of the box's corners), kept here as the reference the
@@ -244,6 +245,45 @@ TEST_CASE("parallel: tessellations are bit-identical for 1, 2 and 3 threads", "[
             CHECK(sameMesh(serial, tessellate(surface, factors, o)));
         }
     }
+}
+
+TEST_CASE("tessellation into a used mesh: the same mesh bit for bit, in the same memory", "[parallel][tessellate]") {
+    const ControlMesh mesh = dmtest::shape("catmark_nonquads");
+    const BaseSurface base(mesh);
+    const TileSet tiles = buildTiles(mesh, uniformTileSizes(mesh, 4), dmtest::roughSource);
+    const DisplacedSurface surface(base, tiles);
+    TessellateOptions o;
+    o.mips = MipSelection::TexelRatio;
+    const Tessellator small(surface, uniformTessFactors(base, 5.7), o), large(surface, uniformTessFactors(base, 23.0), o);
+    const TriangleMesh fresh = small.tessellate();
+    REQUIRE(fresh.triangleCount() > 1000);
+    TriangleMesh used = large.tessellate();
+    REQUIRE(used.triangleCount() > 4 * fresh.triangleCount());
+    CHECK(sameMesh(used, large.tessellate())); // a fresh one again: deterministic
+    const glm::dvec3* positions = used.positions.data();
+    const std::array<glm::dvec2, 3>* corners = used.triangleUVs.data();
+    small.tessellate(used); // shrinks: every array stays where it was
+    CHECK(sameMesh(fresh, used));
+    CHECK(used.positions.data() == positions);
+    CHECK(used.triangleUVs.data() == corners);
+    large.tessellate(used); // and grows back within its capacity
+    CHECK(sameMesh(large.tessellate(), used));
+    CHECK(used.positions.data() == positions);
+    TriangleMesh grown = small.tessellate(); // grows past its capacity
+    large.tessellate(grown);
+    CHECK(sameMesh(used, grown));
+    // The huge-page hint changes where the memory comes from, never the mesh.
+    TessellateOptions plain = o;
+    plain.hugePages = false;
+    CHECK(sameMesh(used, Tessellator(surface, uniformTessFactors(base, 23.0), plain).tessellate()));
+    // Refused (over the memory limit) or not, a mesh handed in is emptied, never half-written.
+    o.maxBytes = 1 << 20;
+    const Tessellator refused(surface, uniformTessFactors(base, 23.0), o);
+    CHECK_THROWS_WITH(refused.tessellate(used), Catch::Contains("more than the limit of 1 MiB"));
+    CHECK(used.positions.empty());
+    CHECK(used.faces.empty());
+    CHECK(used.triangles.empty());
+    CHECK(used.triangleUVs.empty());
 }
 
 TEST_CASE("parallel: mesostructure maps are bit-identical for 1, 2 and 3 threads", "[parallel][meso]") {

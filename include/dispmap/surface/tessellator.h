@@ -76,6 +76,7 @@
 #include "dispmap/surface/base_surface.h"
 #include "dispmap/surface/displaced_surface.h"
 #include "dispmap/core/error.h"
+#include "dispmap/core/memory.h"
 #include "dispmap/core/parallel.h"
 #include "dispmap/core/triangle_mesh.h"
 #include "dispmap/kernels/lod.h"
@@ -118,6 +119,10 @@ struct TessellateOptions {
     /// The connectivity is made in tile order on one thread, so the mesh is the same bit for
     /// bit for every count.
     int threads = 0;
+    /// New output arrays get the transparent-huge-page hint (core/memory.h; Linux only). Off
+    /// leaves them to malloc's 4 KiB pages (the same mesh; `dispmap bench --only embree`
+    /// prints what the hint saves).
+    bool hugePages = true;
 };
 
 /// The size of a tessellation, from its factors alone (Tessellator::estimate).
@@ -289,15 +294,17 @@ class Tessellator {
     /// The whole surface (hole faces skipped). Throws ArgumentError, before anything is made,
     /// when estimate().bytes exceeds options().maxBytes.
     TriangleMesh tessellate() const;
+    /// The same mesh, bit for bit, made in `out`'s arrays: they keep their capacity, so a
+    /// tessellation again (new factors, a moved cage) into the same mesh allocates nothing and
+    /// takes no page faults while it fits (an application tessellating again as its factors
+    /// change; `dispmap bench --only embree` times both). On a throw `out` is left empty
+    /// (capacity kept).
+    void tessellate(TriangleMesh& out) const;
 
   private:
     /// The vertex (TileTopology id) in the middle of tile t's edge e where a quad edge meets two
     /// sub-faces of an N-gon, or -1.
     int tJunctionMidpoint(int t, int e) const;
-    struct Pending {
-        int face;
-        glm::dvec2 uv;
-    };
     struct Point {
         int id;
         glm::dvec2 uv; ///< in the tile being built
@@ -317,8 +324,8 @@ class Tessellator {
     std::vector<double> segmentSpacing(int lo, int hi) const { return edgeSpacing(segmentFactor(lo, hi), options_.spacing); }
     /// Serial, in tile order: gives tile t its vertex ids (corners and T-junction midpoints it
     /// is the first to touch, the interior points of the segments it is the first to reach, its
-    /// inner grid) and the first index of its triangles; writes the pending entries of corners
-    /// and midpoints. The ids are those of one pass over the tiles making every vertex as it
+    /// inner grid) and the first index of its triangles; writes the (face, uv) of corners and
+    /// midpoints. The ids are those of one pass over the tiles making every vertex as it
     /// meets it, whatever the thread count of emit().
     void plan(Build& b, int t) const;
     /// Parallel over tiles: tile t's segment and grid points (those it owns) and its triangles,
@@ -333,8 +340,10 @@ class Tessellator {
 };
 
 struct Tessellator::Build {
-    TriangleMesh mesh;
-    std::vector<Pending> pending;
+    /// The output. plan() and emit() write each vertex's (face, uv) into mesh.faces and
+    /// mesh.uvs, the vertex loop evaluates there.
+    TriangleMesh& mesh;
+    explicit Build(TriangleMesh& out) : mesh(out) {}
     std::vector<int> corner; // vertex id -> index
     /// A segment's interior points: n - 1 indices from `first` in canonical order, made by
     /// tile `owner` (in its frame).
@@ -352,14 +361,20 @@ struct Tessellator::Build {
     int count = 0; // indices given so far
     std::size_t triangleCount = 0;
     int add(int face, glm::dvec2 uv) {
-        pending.push_back({face, uv});
+        mesh.faces.push_back(face);
+        mesh.uvs.push_back(uv);
         return count++;
     }
     int reserve(int n) {
         const int first = count;
         count += n;
-        pending.resize(static_cast<std::size_t>(count));
+        mesh.faces.resize(static_cast<std::size_t>(count));
+        mesh.uvs.resize(static_cast<std::size_t>(count));
         return first;
+    }
+    void set(int i, int face, glm::dvec2 uv) {
+        mesh.faces[static_cast<std::size_t>(i)] = face;
+        mesh.uvs[static_cast<std::size_t>(i)] = uv;
     }
     static std::uint64_t key(int lo, int hi) { return static_cast<std::uint64_t>(lo) << 32 | static_cast<std::uint32_t>(hi); }
 };
@@ -529,7 +544,7 @@ inline void Tessellator::emit(Build& b, int t) const {
         const Build::Segment& seg = b.segments.at(Build::key(lo, hi));
         if (seg.owner == t)
             for (std::size_t i = 1; i < n; ++i)
-                b.pending[static_cast<std::size_t>(seg.first) + i - 1] = Pending{t, detail::tileEdgeUV(e, yAt(i))};
+                b.set(seg.first + static_cast<int>(i) - 1, t, detail::tileEdgeUV(e, yAt(i)));
         auto id = [&](std::size_t i) { return i == 0 ? cornerId(lo) : i == n ? cornerId(hi) : seg.first + static_cast<int>(i) - 1; };
         for (std::size_t j = 0; j < n; ++j) {
             const std::size_t i = A == lo ? j : n - j; // canonical index of my j-th point
@@ -579,7 +594,7 @@ inline void Tessellator::emit(Build& b, int t) const {
     for (int j = 1; j < nvv; ++j)
         for (int i = 1; i < nu; ++i) {
             const Point p = g(i, j);
-            b.pending[static_cast<std::size_t>(p.id)] = Pending{t, p.uv};
+            b.set(p.id, t, p.uv);
         }
     for (int j = 1; j + 1 < nvv; ++j)
         for (int i = 1; i + 1 < nu; ++i) {
@@ -630,85 +645,107 @@ inline TessellationSize Tessellator::estimate() const {
         const std::array<std::uint64_t, 4>& n = c.edgeSegments;
         out.vertices += c.allOne ? 4 : (c.nu - 1) * (c.nv - 1) + n[0] + n[1] + n[2] + n[3];
     }
-    // Per vertex: its pending entry (24 bytes) and the mesh's position, normal, face, uv and
-    // resolution (76); per triangle: indices, face and corner uvs (64). tessellate() sizes its
-    // arrays from these counts (none grows); the factor 2 on the first two is a margin (the
-    // vertex count is an upper bound, and a caller writing the mesh out copies parts of it).
-    out.bytes = 2 * (out.vertices * 24 + out.triangles * 64) + out.vertices * 76;
+    // Per vertex: the mesh's position, normal, face, uv and resolution (76 bytes) and a finiteness
+    // flag (1); per triangle: indices, face and corner uvs (64). tessellate() sizes its arrays
+    // from these counts (none grows); the factor 2 on the triangles is a margin (a caller
+    // writing the mesh out copies parts of it; the vertex count is already an upper bound).
+    out.bytes = 2 * out.triangles * 64 + out.vertices * 77;
     return out;
 }
 
 inline TriangleMesh Tessellator::tessellate() const {
+    TriangleMesh m;
+    tessellate(m);
+    return m;
+}
+
+inline void Tessellator::tessellate(TriangleMesh& out) const {
     const BaseSurface& base = surface_->base();
     const TileTopology& topo = base.topology();
+    // Emptied, not freed: the arrays keep their capacity, and a new size within it writes over
+    // pages already touched (growing an emptied vector copies nothing).
+    auto clear = [&] {
+        out.positions.clear();
+        out.normals.clear();
+        out.faces.clear();
+        out.uvs.clear();
+        out.resolutions.clear();
+        out.triangles.clear();
+        out.triangleFaces.clear();
+        out.triangleUVs.clear();
+    };
+    clear();
     const TessellationSize size = estimate();
     if (size.bytes > options_.maxBytes)
         throw ArgumentError("tessellation: " + std::to_string(size.triangles) + " triangles and up to " + std::to_string(size.vertices) +
                             " vertices would take about " + std::to_string(size.bytes >> 20) + " MiB, more than the limit of " +
                             std::to_string(options_.maxBytes >> 20) + " MiB: lower the factors or the maximum factor");
-    Build b;
-    b.corner.assign(static_cast<std::size_t>(topo.vertexCount()), -1);
-    b.tiles.resize(static_cast<std::size_t>(topo.tileCount()));
-    b.segments.reserve(static_cast<std::size_t>(2 * topo.tileCount() + 8));
-    std::vector<int> live;
-    TriangleMesh& m = b.mesh;
-    const Parallel par(options_.threads);
-    // Sizing the output arrays is mostly the kernel's first touch of their pages (tens of MiB at
-    // factor 32), so the arrays are sized side by side, as tasks of their own. The triangle
-    // count is exact from the factors, so those arrays are sized while plan() runs.
-    const std::size_t triangles = static_cast<std::size_t>(size.triangles);
-    par.each(4, 1, [&](std::size_t task) {
-        if (task == 0) {
-            b.pending.reserve(static_cast<std::size_t>(size.vertices));
-            for (int t = 0; t < topo.tileCount(); ++t)
-                if (!base.isHole(t)) {
-                    plan(b, t);
-                    live.push_back(t);
-                }
-        } else if (task == 1) {
-            m.triangles.resize(triangles);
-        } else if (task == 2) {
-            m.triangleFaces.resize(triangles);
-        } else {
-            m.triangleUVs.resize(triangles);
-        }
-    });
-    if (b.triangleCount != triangles)
-        throw Error("tessellation: " + std::to_string(b.triangleCount) + " triangles planned, " + std::to_string(triangles) +
-                    " counted from the factors (an internal inconsistency)");
-    // Every triangle's place is known: the tiles fill theirs in parallel, while the vertex
-    // arrays are sized.
-    const std::size_t n = b.pending.size();
-    std::vector<char> finite;
-    par.each(7, 1, [&](std::size_t task) {
-        switch (task) {
-        case 0: par.each(live.size(), 8, [&](std::size_t i) { emit(b, live[i]); }); break;
-        case 1: m.positions.resize(n); break;
-        case 2: m.normals.resize(n); break;
-        case 3: m.faces.resize(n); break;
-        case 4: m.uvs.resize(n); break;
-        case 5: m.resolutions.resize(n); break;
-        default: finite.assign(n, 1); break;
-        }
-    });
-    if (options_.normals == NormalMode::Auto) (void)surface_->autoFaces(); // the analysis, once, before the loop
-    // Vertices are independent: each writes its own slot.
-    par.each(n, 256, [&](std::size_t i) {
-        const Pending& p = b.pending[i];
-        const double rho = resolution(p.face, p.uv.x, p.uv.y);
-        const SurfaceSample<double> s = surface_->evaluate<double>(p.face, p.uv.x, p.uv.y, options_.normals, rho);
-        finite[i] = std::isfinite(s.position.x + s.position.y + s.position.z + s.normal.x + s.normal.y + s.normal.z);
-        m.positions[i] = s.position;
-        m.normals[i] = s.normal;
-        m.faces[i] = p.face;
-        m.uvs[i] = p.uv;
-        m.resolutions[i] = rho;
-    });
-    for (std::size_t i = 0; i < n; ++i)
-        if (!finite[i])
-            throw Error("tessellation: the surface is not finite at Ptex face " + std::to_string(b.pending[i].face) + ", (u, v) = (" +
-                        std::to_string(b.pending[i].uv.x) + ", " + std::to_string(b.pending[i].uv.y) + ")");
-    return std::move(b.mesh);
+    try {
+        Build b(out);
+        b.corner.assign(static_cast<std::size_t>(topo.vertexCount()), -1);
+        b.tiles.resize(static_cast<std::size_t>(topo.tileCount()));
+        b.segments.reserve(static_cast<std::size_t>(2 * topo.tileCount() + 8));
+        std::vector<int> live;
+        TriangleMesh& m = out;
+        const Parallel par(options_.threads);
+        // Sizing the output arrays is mostly the kernel's first touch of their pages (tens of MiB
+        // at factor 32), so the arrays are sized side by side, as tasks of their own, with the
+        // huge-page hint (core/memory.h). The triangle count is exact from the factors, so those
+        // arrays are sized while plan() runs; the vertex count is an upper bound, reserved.
+        const std::size_t triangles = static_cast<std::size_t>(size.triangles);
+        par.each(4, 1, [&](std::size_t task) {
+            if (task == 0) {
+                reserveLarge(m.faces, static_cast<std::size_t>(size.vertices), options_.hugePages);
+                reserveLarge(m.uvs, static_cast<std::size_t>(size.vertices), options_.hugePages);
+                for (int t = 0; t < topo.tileCount(); ++t)
+                    if (!base.isHole(t)) {
+                        plan(b, t);
+                        live.push_back(t);
+                    }
+            } else if (task == 1) {
+                resizeLarge(m.triangles, triangles, options_.hugePages);
+            } else if (task == 2) {
+                resizeLarge(m.triangleFaces, triangles, options_.hugePages);
+            } else {
+                resizeLarge(m.triangleUVs, triangles, options_.hugePages);
+            }
+        });
+        if (b.triangleCount != triangles)
+            throw Error("tessellation: " + std::to_string(b.triangleCount) + " triangles planned, " + std::to_string(triangles) +
+                        " counted from the factors (an internal inconsistency)");
+        // Every triangle's place is known: the tiles fill theirs in parallel, while the vertex
+        // arrays are sized.
+        const std::size_t n = m.faces.size();
+        std::vector<char> finite;
+        par.each(5, 1, [&](std::size_t task) {
+            switch (task) {
+            case 0: par.each(live.size(), 8, [&](std::size_t i) { emit(b, live[i]); }); break;
+            case 1: resizeLarge(m.positions, n, options_.hugePages); break;
+            case 2: resizeLarge(m.normals, n, options_.hugePages); break;
+            case 3: resizeLarge(m.resolutions, n, options_.hugePages); break;
+            default: finite.assign(n, 1); break;
+            }
+        });
+        if (options_.normals == NormalMode::Auto) (void)surface_->autoFaces(); // the analysis, once, before the loop
+        // Vertices are independent: each writes its own slot.
+        par.each(n, 256, [&](std::size_t i) {
+            const int face = m.faces[i];
+            const glm::dvec2 uv = m.uvs[i];
+            const double rho = resolution(face, uv.x, uv.y);
+            const SurfaceSample<double> s = surface_->evaluate<double>(face, uv.x, uv.y, options_.normals, rho);
+            finite[i] = std::isfinite(s.position.x + s.position.y + s.position.z + s.normal.x + s.normal.y + s.normal.z);
+            m.positions[i] = s.position;
+            m.normals[i] = s.normal;
+            m.resolutions[i] = rho;
+        });
+        for (std::size_t i = 0; i < n; ++i)
+            if (!finite[i])
+                throw Error("tessellation: the surface is not finite at Ptex face " + std::to_string(m.faces[i]) + ", (u, v) = (" +
+                            std::to_string(m.uvs[i].x) + ", " + std::to_string(m.uvs[i].y) + ")");
+    } catch (...) {
+        clear();
+        throw;
+    }
 }
 
 /// Tessellates `surface` with `factors` (see the header). Throws as Tessellator.
