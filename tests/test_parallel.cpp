@@ -261,11 +261,16 @@ TEST_CASE("tessellation into a used mesh: the same mesh bit for bit, in the same
     REQUIRE(used.triangleCount() > 4 * fresh.triangleCount());
     CHECK(sameMesh(used, large.tessellate())); // a fresh one again: deterministic
     const glm::dvec3* positions = used.positions.data();
+    const int* faces = used.faces.data();
     const std::array<glm::dvec2, 3>* corners = used.triangleUVs.data();
-    small.tessellate(used); // shrinks: every array stays where it was
+    const std::size_t largeVertices = used.positions.size(), largeTriangles = used.triangleUVs.size();
+    small.tessellate(used); // shrinks: every array stays where it was, with its capacity
     CHECK(sameMesh(fresh, used));
     CHECK(used.positions.data() == positions);
+    CHECK(used.faces.data() == faces);
     CHECK(used.triangleUVs.data() == corners);
+    CHECK(used.positions.capacity() >= largeVertices);
+    CHECK(used.triangleUVs.capacity() >= largeTriangles);
     large.tessellate(used); // and grows back within its capacity
     CHECK(sameMesh(large.tessellate(), used));
     CHECK(used.positions.data() == positions);

@@ -40,8 +40,15 @@ inline void adviseHugePages(void* p, std::size_t bytes) {
 }
 
 /// v.reserve(n), with the huge-page hint (when `hint`) on a new allocation of at least
-/// kHugePageArrayBytes. The hint goes in before anything is written to the new block, so its
-/// first touch already faults huge pages.
+/// kHugePageArrayBytes. For an empty vector (the tessellator clears its arrays first) the hint
+/// goes in before anything is written to the new block, so its first touch already faults huge
+/// pages; a vector with elements copies them into the block before the hint.
+///
+/// Where the hint does nothing or costs: THP "never" ignores it and "always" gives huge pages
+/// without it; with the kernel's default defrag setting ("madvise") a fault in an advised range
+/// may compact memory first, which can stall on a fragmented machine; the 2 MiB size is x86-64's
+/// (arm64 with 64 KiB base pages has 512 MiB huge pages, and the hint then rarely applies). On
+/// memory malloc keeps in its heap after a free, the advice stays with the range.
 template <class T> void reserveLarge(std::vector<T>& v, std::size_t n, bool hint = true) {
     if (v.capacity() >= n) return;
     v.reserve(n);

@@ -104,7 +104,7 @@ struct TessFactors {
 
 /// Largest peak memory of one tessellation (TessellateOptions::maxBytes by default). Memory
 /// grows with the square of the factors: the 45 Ptex faces of catmark_nonquads at factor 1000
-/// are 33 million triangles and ~6 GB. 4 GiB (~22 million triangles) is more than a renderer
+/// are 33 million triangles and ~5.5 GB. 4 GiB (~26 million triangles) is more than a renderer
 /// draws per frame and fits the machines dispmap runs on, with room for writing the mesh out.
 inline constexpr std::uint64_t kMaxTessellationBytes = std::uint64_t{4} << 30;
 
@@ -119,9 +119,10 @@ struct TessellateOptions {
     /// The connectivity is made in tile order on one thread, so the mesh is the same bit for
     /// bit for every count.
     int threads = 0;
-    /// New output arrays get the transparent-huge-page hint (core/memory.h; Linux only). Off
-    /// leaves them to malloc's 4 KiB pages (the same mesh; `dispmap bench --only embree`
-    /// prints what the hint saves).
+    /// New output arrays get the transparent-huge-page hint (core/memory.h, which says where it
+    /// does nothing or costs; Linux only). Off leaves them to malloc and the system's THP
+    /// setting. The mesh is the same either way; `dispmap bench --only embree` prints what the
+    /// hint saves.
     bool hugePages = true;
 };
 
@@ -129,7 +130,7 @@ struct TessellateOptions {
 struct TessellationSize {
     std::uint64_t triangles = 0; ///< exact
     std::uint64_t vertices = 0;  ///< an upper bound (edge points counted by both tiles of an edge)
-    std::uint64_t bytes = 0;     ///< peak memory of tessellate() for these counts (vectors at twice their size)
+    std::uint64_t bytes = 0;     ///< peak memory of tessellate() for these counts (triangle arrays at twice their size)
 };
 
 /// The points of one edge parameterised over [0, 1] for factor T (>= 1): increasing, first 0,
@@ -158,8 +159,9 @@ inline std::vector<double> edgeSpacing(double T, Spacing spacing) {
 }
 
 namespace detail {
+inline bool validFactor(double f) { return std::isfinite(f) && f > 0.0; }
 inline void checkFactor(double f, const std::string& what) {
-    if (!std::isfinite(f) || !(f > 0.0))
+    if (!validFactor(f))
         throw ArgumentError("tessellation factor " + std::to_string(f) + " of " + what +
                             " is invalid: factors must be finite and > 0");
 }
@@ -204,7 +206,9 @@ inline TessFactors tessFactorsFromBaseVertices(const BaseSurface& base, const st
         throw ArgumentError(std::to_string(perBaseVertex.size()) + " tessellation factors given for " +
                             std::to_string(nv) + " base vertices");
     TessFactors out;
-    for (int v = 0; v < nv; ++v) detail::checkFactor(perBaseVertex[static_cast<std::size_t>(v)], "base vertex " + std::to_string(v));
+    for (int v = 0; v < nv; ++v) // the name is made only for the message
+        if (const double f = perBaseVertex[static_cast<std::size_t>(v)]; !detail::validFactor(f))
+            detail::checkFactor(f, "base vertex " + std::to_string(v));
     out.values = detail::spreadToTileVertices(L, perBaseVertex);
     return out;
 }
@@ -295,10 +299,11 @@ class Tessellator {
     /// when estimate().bytes exceeds options().maxBytes.
     TriangleMesh tessellate() const;
     /// The same mesh, bit for bit, made in `out`'s arrays: they keep their capacity, so a
-    /// tessellation again (new factors, a moved cage) into the same mesh allocates nothing and
-    /// takes no page faults while it fits (an application tessellating again as its factors
-    /// change; `dispmap bench --only embree` times both). On a throw `out` is left empty
-    /// (capacity kept).
+    /// tessellation again (new factors, a moved cage) into the same mesh reallocates none of the
+    /// mesh's arrays while it fits, and its pages are already touched (an application
+    /// tessellating again as its factors change; `dispmap bench --only embree` times both; the
+    /// call's own working arrays, a few bytes a tile and vertex id, are still allocated). On a
+    /// throw `out` is left empty (capacity kept).
     void tessellate(TriangleMesh& out) const;
 
   private:
@@ -389,7 +394,8 @@ inline Tessellator::Tessellator(const DisplacedSurface& surface, TessFactors fac
         throw ArgumentError(std::to_string(factors_.values.size()) + " tessellation factors given, but the surface has " +
                             std::to_string(topo.vertexCount()) + " tile vertices: they were made for another mesh");
     for (int v = 0; v < topo.vertexCount(); ++v)
-        detail::checkFactor(factors_.values[static_cast<std::size_t>(v)], "tile vertex " + std::to_string(v));
+        if (const double f = factors_.values[static_cast<std::size_t>(v)]; !detail::validFactor(f))
+            detail::checkFactor(f, "tile vertex " + std::to_string(v));
     if (!std::isfinite(options.maxFactor) || options.maxFactor < 1.0 || options.maxFactor > 1024.0)
         throw ArgumentError("maximum tessellation factor " + std::to_string(options.maxFactor) +
                             " out of range [1, 1024]");
@@ -645,11 +651,11 @@ inline TessellationSize Tessellator::estimate() const {
         const std::array<std::uint64_t, 4>& n = c.edgeSegments;
         out.vertices += c.allOne ? 4 : (c.nu - 1) * (c.nv - 1) + n[0] + n[1] + n[2] + n[3];
     }
-    // Per vertex: the mesh's position, normal, face, uv and resolution (76 bytes) and a finiteness
-    // flag (1); per triangle: indices, face and corner uvs (64). tessellate() sizes its arrays
-    // from these counts (none grows); the factor 2 on the triangles is a margin (a caller
-    // writing the mesh out copies parts of it; the vertex count is already an upper bound).
-    out.bytes = 2 * out.triangles * 64 + out.vertices * 77;
+    // Per vertex: the mesh's position, normal, face, uv and resolution (76 bytes); per triangle:
+    // indices, face and corner uvs (64). tessellate() sizes its arrays from these counts (none
+    // grows); the factor 2 on the triangles is a margin (a caller writing the mesh out copies
+    // parts of it; the vertex count is already an upper bound).
+    out.bytes = 2 * out.triangles * 64 + out.vertices * 76;
     return out;
 }
 
@@ -716,14 +722,12 @@ inline void Tessellator::tessellate(TriangleMesh& out) const {
         // Every triangle's place is known: the tiles fill theirs in parallel, while the vertex
         // arrays are sized.
         const std::size_t n = m.faces.size();
-        std::vector<char> finite;
-        par.each(5, 1, [&](std::size_t task) {
+        par.each(4, 1, [&](std::size_t task) {
             switch (task) {
             case 0: par.each(live.size(), 8, [&](std::size_t i) { emit(b, live[i]); }); break;
             case 1: resizeLarge(m.positions, n, options_.hugePages); break;
             case 2: resizeLarge(m.normals, n, options_.hugePages); break;
-            case 3: resizeLarge(m.resolutions, n, options_.hugePages); break;
-            default: finite.assign(n, 1); break;
+            default: resizeLarge(m.resolutions, n, options_.hugePages); break;
             }
         });
         if (options_.normals == NormalMode::Auto) (void)surface_->autoFaces(); // the analysis, once, before the loop
@@ -733,13 +737,13 @@ inline void Tessellator::tessellate(TriangleMesh& out) const {
             const glm::dvec2 uv = m.uvs[i];
             const double rho = resolution(face, uv.x, uv.y);
             const SurfaceSample<double> s = surface_->evaluate<double>(face, uv.x, uv.y, options_.normals, rho);
-            finite[i] = std::isfinite(s.position.x + s.position.y + s.position.z + s.normal.x + s.normal.y + s.normal.z);
             m.positions[i] = s.position;
             m.normals[i] = s.normal;
             m.resolutions[i] = rho;
         });
+        // The first vertex in index order that is not finite is named, whatever the thread count.
         for (std::size_t i = 0; i < n; ++i)
-            if (!finite[i])
+            if (const glm::dvec3 &p = m.positions[i], &q = m.normals[i]; !std::isfinite(p.x + p.y + p.z + q.x + q.y + q.z))
                 throw Error("tessellation: the surface is not finite at Ptex face " + std::to_string(m.faces[i]) + ", (u, v) = (" +
                             std::to_string(m.uvs[i].x) + ", " + std::to_string(m.uvs[i].y) + ")");
     } catch (...) {
