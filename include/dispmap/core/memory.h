@@ -6,7 +6,7 @@
 // pages that is one fault per 4 KiB, and on a virtual machine a fault is several microseconds.
 // reserveLarge() asks Linux for transparent huge pages on the array (madvise MADV_HUGEPAGE, a
 // hint: it does nothing where THP is "never", or on other systems), so the same memory takes
-// 512 times fewer faults: a factor-64 tessellation of Spot into a new mesh ran 2.4x faster with
+// 512 times fewer faults: a factor-64 tessellation of Spot into a new mesh ran 2.3-2.4x faster with
 // the hint on the 2-core VM here (`dispmap bench --only embree`, its "First touch" lines). Only
 // whole 2 MiB-aligned ranges inside the array are advised, so no memory is added. The capacity
 // reserved is virtual until touched: an upper bound costs nothing for the part never written.
