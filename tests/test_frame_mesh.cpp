@@ -378,5 +378,109 @@ TEST_CASE("a mesostructure scene's base surface", "[meso][frame][scene]") {
     }
 }
 
+TEST_CASE("groupFrameMesh orders the triangles by group, stably, and counts them", "[meso][frame]") {
+    const Built b(dmtest::shape("catmark_torus"), 2.0);
+    const UvMap uv(b.mesh);
+    const FrameMesh whole = buildFrameMesh(b.surface, b.tess, &uv, {});
+    REQUIRE(whole.faces == b.tess.triangleFaces);
+    CHECK(whole.groups.empty());
+    // Faces by parity into groups 2 and 0; group 1 gets none.
+    std::vector<int> groupOf(static_cast<std::size_t>(b.base.faceCount()));
+    for (std::size_t f = 0; f < groupOf.size(); ++f) groupOf[f] = f % 2 ? 0 : 2;
+    FrameMesh m = whole;
+    const std::vector<int> counts = groupFrameMesh(m, groupOf, 3);
+    CHECK(m.groups == counts);
+    REQUIRE(counts.size() == 3);
+    CHECK(counts[1] == 0);
+    CHECK(counts[0] + counts[2] == whole.triangleCount());
+    // Each group's triangles are the input's of that group, in the input's order, corners whole.
+    std::size_t at = 0;
+    for (int g : {0, 1, 2})
+        for (std::size_t t = 0; t < whole.faces.size(); ++t)
+            if (groupOf[static_cast<std::size_t>(whole.faces[t])] == g) {
+                CHECK(m.faces[at] == whole.faces[t]);
+                for (std::size_t c = 0; c < 3; ++c) CHECK(m.corners[3 * at + c].position == whole.corners[3 * t + c].position);
+                CHECK(m.corners[3 * at + 2].tex == whole.corners[3 * t + 2].tex);
+                ++at;
+            }
+    CHECK(at == whole.faces.size());
+    // Bad inputs.
+    FrameMesh bad = whole;
+    CHECK_THROWS_WITH(groupFrameMesh(bad, groupOf, 2), Contains("is in group 2, not in 0 .. 1"));
+    CHECK_THROWS_WITH(groupFrameMesh(bad, {0, 0}, 1), Contains("beyond the 2 faces grouped"));
+    CHECK_THROWS_WITH(groupFrameMesh(bad, groupOf, 0), Contains("0 groups"));
+    bad.faces.pop_back();
+    CHECK_THROWS_WITH(groupFrameMesh(bad, groupOf, 3), Contains("triangle faces for"));
+}
+
+TEST_CASE("several mesostructures on a base, one an OBJ material", "[meso][frame][scene]") {
+    const std::string mesh = dmtest::dataPath("spot_materials.obj");
+    const std::string head = R"({"base": {"mesh": ")" + mesh + R"(", "isolation": 2, "tessellation": 2}, "mesostructure": )";
+    SECTION("three materials: each triangle lies under its face's material") {
+        const MesoSceneDesc s = parse(head + R"([{"material": "hide", "size": 16, "layers": 8},
+            {"material": "head", "function": "waves", "size": 8, "layers": 4}, {"size": 32, "layers": 8, "cones": "isotropic"}]})");
+        const std::vector<MesoSceneDesc> parts = mesoSceneParts(s);
+        REQUIRE(parts.size() == 3);
+        CHECK(parts[1].function == "waves");
+        CHECK(parts[1].key == "mesostructure[1]");
+        CHECK(parts[2].material.empty());
+        CHECK(parts[2].cones.isotropic);
+        CHECK(parts[0].others.empty());
+        CHECK(parts[2].eye == s.eye); // the scene's keys are shared
+        const auto base = buildMesoSceneBase(s);
+        REQUIRE(base);
+        REQUIRE(base->groups.size() == 3);
+        CHECK(base->groups[0] + base->groups[1] + base->groups[2] == base->triangleCount());
+        // The part of each triangle from its ptex face's control face's material.
+        const ControlMesh cage = ControlMesh::fromObjFile(mesh);
+        const MeshDescription& d = cage.description();
+        std::vector<std::string> materialOfPtex(static_cast<std::size_t>(cage.ptexFaceCount()));
+        for (std::size_t f = 0; f < d.faceSizes.size(); ++f)
+            for (int k = 0; k < (d.faceSizes[f] == 4 ? 1 : d.faceSizes[f]); ++k)
+                materialOfPtex[static_cast<std::size_t>(cage.ptex().GetFaceId(static_cast<int>(f)) + k)] = d.materials[static_cast<std::size_t>(d.faceMaterials[f])];
+        std::size_t t = 0;
+        for (int g = 0; g < 3; ++g)
+            for (int i = 0; i < base->groups[static_cast<std::size_t>(g)]; ++i, ++t) {
+                const std::string& m = materialOfPtex[static_cast<std::size_t>(base->faces[t])];
+                CHECK(m == (g == 0 ? "hide" : g == 1 ? "head" : "legs"));
+            }
+        // The same base without materials, ungrouped, has the same triangles.
+        const auto one = buildMesoSceneBase(parse(head + R"({"size": 16, "layers": 8}})"));
+        CHECK(one->groups.empty());
+        CHECK(one->triangleCount() == base->triangleCount());
+    }
+    SECTION("bad arrays and materials are clear errors") {
+        const auto bad = [&](const std::string& parts, const std::string& why) {
+            INFO(parts);
+            CHECK_THROWS_WITH(buildMesoSceneBase(parse(head + parts + "}")), Contains(why));
+        };
+        bad("[]", "'mesostructure' is an array of 0 mesostructures (1 .. 16)");
+        bad(R"([{"material": "hide"}, {"material": "hide"}])", "'mesostructure[0]' and 'mesostructure[1]' are both on material 'hide'");
+        bad(R"([{}, {"material": "head"}, {}])", "'mesostructure[0]' and 'mesostructure[2]' both lack a 'material'");
+        bad(R"([{"material": ""}])", "'mesostructure[0].material' must be a material's name");
+        bad(R"([{"material": 3}])", "'mesostructure[0].material' must be a material's name");
+        bad(R"([{"material": "hide"}, {"material": "head", "layers": 1}])", "'mesostructure[1].layers' out of range");
+        bad(R"([{"material": "hide"}, {"material": "head", "colour": 1}])", "unknown key 'mesostructure[1].colour'");
+        bad(R"([{"material": "hide"}, {"material": "horns"}])", "'mesostructure[1].material' 'horns' is not a material of the mesh");
+        bad(R"([{"material": "hide"}, {"material": "head"}])", "(material 'legs') lies under no mesostructure");
+        bad(R"({"material": "hide"})", "lies under no mesostructure: give one that material");
+        std::string many = "[";
+        for (int i = 0; i < 17; ++i) many += std::string(i ? "," : "") + R"({"material": "m)" + std::to_string(i) + R"("})";
+        bad(many + "]", "an array of 17 mesostructures (1 .. 16)");
+        // A mesh without materials; the plane.
+        CHECK_THROWS_WITH(buildMesoSceneBase(parse(R"({"base": {"mesh": "builtin:torus", "placement": "face", "tessellation": 2},
+            "camera": {"eye": [0, 0, -5], "up": [0, 1, 0]}, "mesostructure": [{"material": "hide"}, {}]})")),
+                          Contains("'hide' is not a material of the mesh 'torus 8x6' (it names no material: OBJ usemtl)"));
+        CHECK_THROWS_WITH(parse(R"({"mesostructure": [{}]})"), Contains("'mesostructure' as an array needs a 'base'"));
+        CHECK_THROWS_WITH(parse(R"({"mesostructure": {"material": "hide"}})"), Contains("'mesostructure.material' needs a 'base'"));
+    }
+    SECTION("the scene of tests/data") {
+        const std::string path = dmtest::dataPath("scenes/meso_spot_materials.json");
+        const MesoSceneDesc s = parseMesoScene(loadSceneJson(path), path, dmtest::dataPath("scenes"));
+        CHECK(mesoSceneParts(s).size() == 3);
+        CHECK(s.others[1].material == "legs");
+    }
+}
+
 } // namespace
 } // namespace frame_mesh_test

@@ -232,6 +232,28 @@ TEST_CASE("OBJ: unknown statements are errors; o, g, s, usemtl, mtllib, l, p and
     CHECK(m.description().faceSizes == std::vector<int>{4});
 }
 
+TEST_CASE("OBJ: usemtl gives the faces that follow a material; the .mtl file is never read", "[inputs][obj]") {
+    // Faces before the first usemtl have none (-1); a name used again is the same material;
+    // a name is the rest of the line, as tinyobjloader reads it.
+    const std::string text = kStrip.substr(0, kStrip.find('f')) + "v 1 2 0\nf 1 2 5 4\nmtllib missing.mtl\nusemtl brick wall\nf 2 3 6 5\n" +
+                             "usemtl grating\nf 4 5 7\nusemtl  brick   wall\nf 5 6 7\n";
+    const MeshDescription d = parseObj(text, "m.obj");
+    CHECK(d.materials == std::vector<std::string>{"brick wall", "grating"});
+    CHECK(d.faceMaterials == std::vector<int>{-1, 0, 1, 0});
+    CHECK_NOTHROW(ControlMesh(d));
+    // None named: both empty.
+    const MeshDescription plain = parseObj(kStrip, "m.obj");
+    CHECK(plain.materials.empty());
+    CHECK(plain.faceMaterials.empty());
+    CHECK_THAT(meshError(kSquare + "usemtl\nf 1 2 3 4\n"), Contains("m.obj:5: usemtl needs a material name"));
+    // Built in code: the per-face list must match the faces and the names.
+    MeshDescription bad = d;
+    bad.faceMaterials.pop_back();
+    CHECK_THROWS_WITH(ControlMesh(bad), Contains("3 face materials for 4 faces"));
+    bad.faceMaterials = {0, 0, 2, 0};
+    CHECK_THROWS_WITH(ControlMesh(bad), Contains("a face's material 2 is not one of the 2 materials"));
+}
+
 TEST_CASE("OBJ: descriptions built in code are checked too (no line to name)", "[inputs][obj]") {
     MeshDescription d = parseObj(kStrip, "code");
     d.creaseVertexPairs = {0, 4};

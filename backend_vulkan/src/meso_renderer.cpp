@@ -47,28 +47,19 @@ constexpr std::uint32_t kTargets = 5;
 const VkFormat kFormats[kTargets] = {VK_FORMAT_R8G8B8A8_UNORM, VK_FORMAT_R32G32B32A32_SFLOAT, VK_FORMAT_R32G32B32A32_SFLOAT,
                                      VK_FORMAT_R32G32B32A32_SFLOAT, VK_FORMAT_R32G32B32A32_UINT};
 
-// The images share one storage buffer (binding 7), bound whole: the albedo's words from 0 on,
-// the normal map's from this word on (params.dims2.y).
-std::size_t normalMapFirstWord(const MesoRenderOptions& o) { return o.albedo ? o.albedo->words.size() : 0; }
+// A part's images share one storage buffer (binding 7), bound whole: the albedo's words from
+// 0 on, the normal map's from this word on (params.dims2.y).
+std::size_t normalMapFirstWord(const MesoLook& o) { return o.albedo ? o.albedo->words.size() : 0; }
 
-void validate(const Context& ctx, const MesoMaps& maps, const MesoRenderOptions& o) {
+// What the scene holds for every part: image, frames, camera, light, the plane or the base mesh.
+void validateScene(const Context& ctx, const MesoRenderOptions& o) {
     if (o.width < 1 || o.height < 1 || o.width > 4096 || o.height > 4096)
         throw ArgumentError("meso renderer: image size " + std::to_string(o.width) + " x " + std::to_string(o.height) +
                             " out of range [1, 4096]");
     if (o.frames < 1 || o.warmup < 0) throw ArgumentError("meso renderer: frames must be >= 1 and warm-up frames >= 0");
-    const MesoTechnique& t = o.technique;
-    if ((t.method == MesoMethod::DistanceMap || t.method == MesoMethod::Ddm) && t.iterations < 1)
-        throw ArgumentError("meso renderer: the technique needs at least one iteration (" + std::to_string(t.iterations) + ")");
-    if ((t.method == MesoMethod::Relief || t.method == MesoMethod::Pom) && t.linear < 1)
-        throw ArgumentError("meso renderer: relief mapping / POM need at least one linear step");
-    if (t.method == MesoMethod::Relief && t.binary < 0) throw ArgumentError("meso renderer: relief mapping needs binary >= 0");
-    if (t.method == MesoMethod::Ddm && (t.exitRule < 0 || t.exitRule > 1)) throw ArgumentError("meso renderer: exit rule must be 0 or 1");
-    if (!std::isfinite(t.eps)) throw ArgumentError("meso renderer: eps must be finite");
-    if (!(o.tileSize > 0) || !(o.depth > 0) || !(o.planeHalfSize > 0) || o.quads < 1 || o.quads > 256 ||
-        !std::isfinite(o.tileSize + o.depth + o.planeHalfSize))
+    if (!(o.tileSize > 0) || !(o.planeHalfSize > 0) || o.quads < 1 || o.quads > 256 || !std::isfinite(o.tileSize + o.planeHalfSize))
         throw ArgumentError("meso renderer: tile size, depth and plane size must be finite and > 0, quads in 1..256");
     if (!std::isfinite(o.camera.eye.x + o.camera.eye.y + o.camera.eye.z)) throw ArgumentError("meso renderer: the camera must be finite");
-    if (!(o.checkerVoxels >= 0 && o.checkerVoxels <= 1e6)) throw ArgumentError("meso renderer: the checker period must be in [0, 1e6] voxels");
     if (!o.base && !(o.camera.eye.z > 0)) throw ArgumentError("meso renderer: the camera must be above the plane z = 0 (eye.z > 0)");
     if (o.base) {
         const std::size_t n = o.base->corners.size();
@@ -84,9 +75,6 @@ void validate(const Context& ctx, const MesoMaps& maps, const MesoRenderOptions&
             if (!(sum <= kMaxDrawValue))
                 throw ArgumentError("meso renderer: base mesh corner " + std::to_string(i) + " has a value that is not finite or beyond +-" +
                                     dispmap::detail::drawNumber(kMaxDrawValue) + " (the GPU holds it as a float)");
-            if (!(std::max(std::abs(v.tex.x) * maps.field.width, std::abs(v.tex.y) * maps.field.height) <= kMaxFrameVoxel))
-                throw ArgumentError("meso renderer: base mesh corner " + std::to_string(i) + ": texture coordinate beyond " +
-                                    dispmap::detail::drawNumber(kMaxFrameVoxel) + " voxels (buildFrameMesh keeps them near the origin)");
             if (!(frameIndependence(v.pS, v.pT, v.normal) >= kMinFrameIndependence) || !(std::abs(glm::length(v.normal) - 1.0) < 1e-3))
                 throw ArgumentError("meso renderer: base mesh corner " + std::to_string(i) + ": its frame is singular or its normal not of unit length");
         }
@@ -94,6 +82,29 @@ void validate(const Context& ctx, const MesoMaps& maps, const MesoRenderOptions&
     if (!(o.camera.fovYDeg > 0 && o.camera.fovYDeg < 180)) throw ArgumentError("meso renderer: field of view must be in (0, 180) degrees");
     if (!(glm::length(o.lightDirection) > 0) || !std::isfinite(glm::length(o.lightDirection)))
         throw ArgumentError("meso renderer: the light direction must be finite and non-zero");
+}
+
+// One part: its technique and look against its maps, and its corners' texture coordinates
+// (corners [first, first + count) of the base).
+void validateLook(const Context& ctx, const MesoMaps& maps, const MesoLook& o, const MesoRenderOptions& scene, std::size_t first,
+                  std::size_t count) {
+    const MesoTechnique& t = o.technique;
+    if ((t.method == MesoMethod::DistanceMap || t.method == MesoMethod::Ddm) && t.iterations < 1)
+        throw ArgumentError("meso renderer: the technique needs at least one iteration (" + std::to_string(t.iterations) + ")");
+    if ((t.method == MesoMethod::Relief || t.method == MesoMethod::Pom) && t.linear < 1)
+        throw ArgumentError("meso renderer: relief mapping / POM need at least one linear step");
+    if (t.method == MesoMethod::Relief && t.binary < 0) throw ArgumentError("meso renderer: relief mapping needs binary >= 0");
+    if (t.method == MesoMethod::Ddm && (t.exitRule < 0 || t.exitRule > 1)) throw ArgumentError("meso renderer: exit rule must be 0 or 1");
+    if (!std::isfinite(t.eps)) throw ArgumentError("meso renderer: eps must be finite");
+    if (!(o.depth > 0) || !std::isfinite(o.depth)) throw ArgumentError("meso renderer: tile size, depth and plane size must be finite and > 0, quads in 1..256");
+    if (!(o.checkerVoxels >= 0 && o.checkerVoxels <= 1e6)) throw ArgumentError("meso renderer: the checker period must be in [0, 1e6] voxels");
+    if (scene.base)
+        for (std::size_t i = first; i < first + count; ++i) {
+            const FrameVertex& v = scene.base->corners[i];
+            if (!(std::max(std::abs(v.tex.x) * maps.field.width, std::abs(v.tex.y) * maps.field.height) <= kMaxFrameVoxel))
+                throw ArgumentError("meso renderer: base mesh corner " + std::to_string(i) + ": texture coordinate beyond " +
+                                    dispmap::detail::drawNumber(kMaxFrameVoxel) + " voxels (buildFrameMesh keeps them near the origin)");
+        }
     const auto checkImage = [](const std::shared_ptr<const MesoAlbedo>& image, const char* what) {
         if (!image) return;
         const std::vector<std::uint32_t>& w = image->words;
@@ -119,18 +130,37 @@ void validate(const Context& ctx, const MesoMaps& maps, const MesoRenderOptions&
         if (!maps.ddm.cones.shadow && !maps.ddm.cones.isotropic)
             throw ArgumentError("meso renderer: shadows need a DDM with shadow cones (build the maps with ConeSet::shadow = true), "
                                 "these have " + maps.ddm.cones.name());
-        if (!o.base && !(o.lightDirection.z > 0)) throw ArgumentError("meso renderer: shadows need a light above the horizon (z > 0)");
+        if (!scene.base && !(scene.lightDirection.z > 0)) throw ArgumentError("meso renderer: shadows need a light above the horizon (z > 0)");
         if (o.shadowIterations < 1) throw ArgumentError("meso renderer: shadow iterations must be >= 1");
     }
     (void)mesoGpuSize(maps); // sizes agree
 }
 
+// The parts against the scene: a base for several, counts summing to its triangles.
+void validateParts(std::span<const MesoPart> parts, const MesoRenderOptions& scene) {
+    if (parts.empty() || parts.size() > 255)
+        throw ArgumentError("meso renderer: " + std::to_string(parts.size()) + " mesostructures (1 .. 255)");
+    if (parts.size() > 1 && !scene.base) throw ArgumentError("meso renderer: several mesostructures need a base mesh (the plane is one part)");
+    std::int64_t sum = 0;
+    for (std::size_t i = 0; i < parts.size(); ++i) {
+        if (!parts[i].maps) throw ArgumentError("meso renderer: mesostructure " + std::to_string(i) + " has no maps");
+        if (parts[i].triangles < 0) throw ArgumentError("meso renderer: mesostructure " + std::to_string(i) + " covers a negative number of triangles");
+        sum += parts[i].triangles;
+    }
+    const std::int64_t triangles = scene.base ? static_cast<std::int64_t>(scene.base->corners.size() / 3)
+                                              : std::int64_t{2} * scene.quads * scene.quads;
+    if (sum != triangles)
+        throw ArgumentError("meso renderer: the mesostructures cover " + std::to_string(sum) + " triangles, the base has " + std::to_string(triangles));
+}
+
 } // namespace
 
-glm::dvec3 mesoVoxelsPerUnit(const MesoMaps& maps, const MesoRenderOptions& o) {
-    const double tile = o.base ? 1.0 : o.tileSize;
-    return {double(maps.field.width) / tile, double(maps.field.height) / tile, double(maps.field.layers) / o.depth};
+glm::dvec3 mesoVoxelsPerUnit(const MesoMaps& maps, const MesoLook& look, const MesoRenderOptions& scene) {
+    const double tile = scene.base ? 1.0 : scene.tileSize;
+    return {double(maps.field.width) / tile, double(maps.field.height) / tile, double(maps.field.layers) / look.depth};
 }
+
+glm::dvec3 mesoVoxelsPerUnit(const MesoMaps& maps, const MesoRenderOptions& o) { return mesoVoxelsPerUnit(maps, o, o); }
 
 glm::dmat4 mesoViewProjection(const MesoRenderOptions& o) {
     double far = 4.0 * (glm::length(o.camera.eye - o.camera.target) + 2.0 * o.planeHalfSize);
@@ -144,43 +174,38 @@ glm::dmat4 mesoViewProjection(const MesoRenderOptions& o) {
     return proj * glm::lookAtRH(o.camera.eye, o.camera.target, o.camera.up);
 }
 
-struct MesoRenderer::Impl {
-    Context& ctx;
-    MesoRenderOptions options;
+// One mesostructure on the GPU: its maps, parameters, images, descriptor set and pipeline,
+// and the range of vertices it draws.
+struct MesoPartGpu {
+    MesoLook look;
     MesoBuffers maps;
     std::unique_ptr<Buffer> params;
-    std::unique_ptr<Buffer> frame; // the base mesh's corners, or a placeholder
     std::unique_ptr<Buffer> images; // the albedo's and the normal map's MesoAlbedo::words, or a placeholder
-    std::unique_ptr<OffscreenTargets> targets;
     std::unique_ptr<DescriptorSet> descriptors;
     std::unique_ptr<GraphicsPipeline> pipeline;
+    std::uint32_t firstVertex = 0, vertices = 0;
+};
+
+struct MesoRenderer::Impl {
+    Context& ctx;
+    MesoRenderOptions options; // the scene; its depth the deepest part's (the far plane's room)
+    std::vector<MesoPartGpu> parts;
+    std::unique_ptr<Buffer> frame; // the base mesh's corners, or a placeholder
+    std::unique_ptr<OffscreenTargets> targets;
     std::unique_ptr<Timestamps> timestamps;
 
-    Impl(Context& c, const MesoMaps& m, const MesoRenderOptions& o) : ctx(c), options(o), maps(uploadMesoMaps(c, m)) {}
+    Impl(Context& c, const MesoRenderOptions& o) : ctx(c), options(o) {}
     ~Impl() {
         ctx.fn().vkDeviceWaitIdle(ctx.device());
         timestamps.reset();
-        pipeline.reset();
-        descriptors.reset();
+        for (MesoPartGpu& p : parts) {
+            p.pipeline.reset();
+            p.descriptors.reset();
+        }
         targets.reset();
     }
 
-    void writeParams(const MesoMaps& m) {
-        const MesoGpuSize s = mesoGpuSize(m);
-        const glm::dvec3 vpu = mesoVoxelsPerUnit(m, options);
-        GpuMesoParams p{};
-        p.viewProj = glm::mat4(mesoViewProjection(options));
-        p.eye = glm::vec4(glm::vec3(options.camera.eye), 1.0f);
-        p.light = glm::vec4(glm::vec3(glm::normalize(options.lightDirection)), float(options.ambient));
-        p.voxelsPerUnit = glm::vec4(glm::vec3(vpu), float(options.checkerVoxels));
-        p.plane = glm::vec4(float(options.planeHalfSize), float(options.quads), 0.0f, 0.0f);
-        p.background = glm::vec4(glm::vec3(options.background), 1.0f);
-        p.dims0 = glm::ivec4(s.width, s.height, s.layers, s.block);
-        p.dims1 = glm::ivec4(s.gx, s.gy, s.gz, s.coneM);
-        p.dims2 = glm::ivec4(s.coneN, static_cast<int>(normalMapFirstWord(options)), 0, 0);
-        p.tol = glm::vec4(s.tol, float(options.shadowOffset), float(options.normalScale), options.normalGreenUp ? -1.0f : 1.0f);
-        params = std::make_unique<Buffer>(ctx, sizeof p);
-        params->upload(&p, sizeof p);
+    void writeFrame() {
         std::vector<GpuFrameVertex> corners(options.base ? options.base->corners.size() : 1);
         if (options.base)
             for (std::size_t i = 0; i < corners.size(); ++i) {
@@ -190,53 +215,74 @@ struct MesoRenderer::Impl {
             }
         frame = std::make_unique<Buffer>(ctx, corners.size() * sizeof(GpuFrameVertex));
         frame->upload(corners.data(), corners.size() * sizeof(GpuFrameVertex));
+    }
+
+    void addPart(const MesoMaps& m, const MesoLook& look, std::uint32_t firstVertex, std::uint32_t vertices) {
+        MesoPartGpu& g = parts.emplace_back(MesoPartGpu{look, uploadMesoMaps(ctx, m), nullptr, nullptr, nullptr, nullptr, firstVertex, vertices});
+        const MesoGpuSize s = mesoGpuSize(m);
+        const glm::dvec3 vpu = mesoVoxelsPerUnit(m, look, options);
+        GpuMesoParams p{};
+        p.viewProj = glm::mat4(mesoViewProjection(options));
+        p.eye = glm::vec4(glm::vec3(options.camera.eye), 1.0f);
+        p.light = glm::vec4(glm::vec3(glm::normalize(options.lightDirection)), float(options.ambient));
+        p.voxelsPerUnit = glm::vec4(glm::vec3(vpu), float(look.checkerVoxels));
+        p.plane = glm::vec4(float(options.planeHalfSize), float(options.quads), 0.0f, 0.0f);
+        p.background = glm::vec4(glm::vec3(options.background), 1.0f);
+        p.dims0 = glm::ivec4(s.width, s.height, s.layers, s.block);
+        p.dims1 = glm::ivec4(s.gx, s.gy, s.gz, s.coneM);
+        p.dims2 = glm::ivec4(s.coneN, static_cast<int>(normalMapFirstWord(look)), static_cast<int>(parts.size() - 1), 0);
+        p.tol = glm::vec4(s.tol, float(look.shadowOffset), float(look.normalScale), look.normalGreenUp ? -1.0f : 1.0f);
+        g.params = std::make_unique<Buffer>(ctx, sizeof p);
+        g.params->upload(&p, sizeof p);
         // The images one after the other (normalMapFirstWord); none: a placeholder.
         std::vector<std::uint32_t> words;
-        if (options.albedo) words = options.albedo->words;
-        if (options.normalMap) words.insert(words.end(), options.normalMap->words.begin(), options.normalMap->words.end());
+        if (look.albedo) words = look.albedo->words;
+        if (look.normalMap) words.insert(words.end(), look.normalMap->words.begin(), look.normalMap->words.end());
         if (words.empty()) words.assign(4, 0u);
-        images = std::make_unique<Buffer>(ctx, words.size() * sizeof(std::uint32_t));
-        images->upload(words.data(), words.size() * sizeof(std::uint32_t));
+        g.images = std::make_unique<Buffer>(ctx, words.size() * sizeof(std::uint32_t));
+        g.images->upload(words.data(), words.size() * sizeof(std::uint32_t));
     }
 
     void create() {
         const VkFormat depth = options.base ? VK_FORMAT_D32_SFLOAT : VK_FORMAT_UNDEFINED;
         if (options.base) requireFormat(ctx, depth, VK_FORMAT_FEATURE_DEPTH_STENCIL_ATTACHMENT_BIT, "the mesostructure renderer's depth");
         targets = std::make_unique<OffscreenTargets>(ctx, options.width, options.height, kFormats, depth);
-        const auto mb = maps.all(); // maps 0..4, params 5, base mesh 6, images 7
-        std::array<VkBuffer, 8> storage{};
-        for (std::size_t i = 0; i < 5; ++i) storage[i] = mb[i]->handle();
-        storage[5] = params->handle();
-        storage[6] = frame->handle();
-        storage[7] = images->handle();
-        descriptors = std::make_unique<DescriptorSet>(ctx, storage, std::span<const SampledImage>{},
-                                                      VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT);
-        const MesoTechnique& t = options.technique;
-        const float eps = static_cast<float>(t.eps);
-        std::uint32_t epsBits;
-        std::memcpy(&epsBits, &eps, sizeof epsBits);
-        GraphicsPipelineDesc d;
-        d.specConstants = {static_cast<std::uint32_t>(t.method),
-                           static_cast<std::uint32_t>(t.iterations),
-                           epsBits,
-                           t.quadrics ? 1u : 0u,
-                           static_cast<std::uint32_t>(t.exitRule),
-                           static_cast<std::uint32_t>(t.linear),
-                           static_cast<std::uint32_t>(t.binary),
-                           options.shadows ? 1u : 0u,
-                           static_cast<std::uint32_t>(options.shadowIterations),
-                           options.base ? 1u : 0u,
-                           options.albedo ? 1u : 0u,
-                           options.normalMap ? 1u : 0u};
-        d.stages = {{VK_SHADER_STAGE_VERTEX_BIT, options.base ? std::span<const std::uint32_t>(meso_base_vert_spv)
-                                                              : std::span<const std::uint32_t>(meso_vert_spv), false},
-                    {VK_SHADER_STAGE_FRAGMENT_BIT, meso_frag_spv, true}};
-        // A miss writes the far plane (1): LESS_OR_EQUAL lets it cover the clear, never a hit.
-        d.depthFormat = depth;
-        d.depthCompare = VK_COMPARE_OP_LESS_OR_EQUAL;
-        d.colorFormats.assign(std::begin(kFormats), std::end(kFormats));
-        d.layout = descriptors->pipelineLayout();
-        pipeline = std::make_unique<GraphicsPipeline>(ctx, d);
+        for (MesoPartGpu& g : parts) {
+            const auto mb = g.maps.all(); // maps 0..4, params 5, base mesh 6, images 7
+            std::array<VkBuffer, 8> storage{};
+            for (std::size_t i = 0; i < 5; ++i) storage[i] = mb[i]->handle();
+            storage[5] = g.params->handle();
+            storage[6] = frame->handle();
+            storage[7] = g.images->handle();
+            g.descriptors = std::make_unique<DescriptorSet>(ctx, storage, std::span<const SampledImage>{},
+                                                            VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT);
+            const MesoTechnique& t = g.look.technique;
+            const float eps = static_cast<float>(t.eps);
+            std::uint32_t epsBits;
+            std::memcpy(&epsBits, &eps, sizeof epsBits);
+            GraphicsPipelineDesc d;
+            d.specConstants = {static_cast<std::uint32_t>(t.method),
+                               static_cast<std::uint32_t>(t.iterations),
+                               epsBits,
+                               t.quadrics ? 1u : 0u,
+                               static_cast<std::uint32_t>(t.exitRule),
+                               static_cast<std::uint32_t>(t.linear),
+                               static_cast<std::uint32_t>(t.binary),
+                               g.look.shadows ? 1u : 0u,
+                               static_cast<std::uint32_t>(g.look.shadowIterations),
+                               options.base ? 1u : 0u,
+                               g.look.albedo ? 1u : 0u,
+                               g.look.normalMap ? 1u : 0u};
+            d.stages = {{VK_SHADER_STAGE_VERTEX_BIT, options.base ? std::span<const std::uint32_t>(meso_base_vert_spv)
+                                                                  : std::span<const std::uint32_t>(meso_vert_spv), false},
+                        {VK_SHADER_STAGE_FRAGMENT_BIT, meso_frag_spv, true}};
+            // A miss writes the far plane (1): LESS_OR_EQUAL lets it cover the clear, never a hit.
+            d.depthFormat = depth;
+            d.depthCompare = VK_COMPARE_OP_LESS_OR_EQUAL;
+            d.colorFormats.assign(std::begin(kFormats), std::end(kFormats));
+            d.layout = g.descriptors->pipelineLayout();
+            g.pipeline = std::make_unique<GraphicsPipeline>(ctx, d);
+        }
         timestamps = std::make_unique<Timestamps>(ctx);
     }
 
@@ -256,10 +302,13 @@ struct MesoRenderer::Impl {
         const VkRect2D scissor{{0, 0}, {w, h}};
         fn.vkCmdSetViewport(cmd, 0, 1, &viewport);
         fn.vkCmdSetScissor(cmd, 0, 1, &scissor);
-        descriptors->bind(cmd);
-        fn.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline->handle());
-        const std::size_t vertices = options.base ? options.base->corners.size() : static_cast<std::size_t>(6 * options.quads * options.quads);
-        fn.vkCmdDraw(cmd, static_cast<std::uint32_t>(vertices), 1, 0, 0);
+        // One pipeline a mesostructure over its triangles, all into the one depth buffer.
+        for (const MesoPartGpu& g : parts) {
+            if (g.vertices == 0) continue;
+            g.descriptors->bind(cmd);
+            fn.vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, g.pipeline->handle());
+            fn.vkCmdDraw(cmd, g.vertices, 1, g.firstVertex, 0);
+        }
         targets->endRendering(cmd);
         timestamps->end(cmd);
         if (readBackNow) targets->copyToReadBack(cmd);
@@ -268,14 +317,44 @@ struct MesoRenderer::Impl {
     }
 };
 
-MesoRenderer::MesoRenderer(Context& context, const MesoMaps& maps, const MesoRenderOptions& options) {
-    validate(context, maps, options);
+namespace {
+void requireDynamicRendering(const Context& context) {
     if (!context.dynamicRenderingEnabled())
         throw VulkanError("Vulkan device '" + context.deviceName() +
                           "': dynamic rendering is not enabled (Vulkan 1.3 dynamicRendering or VK_KHR_dynamic_rendering), "
                           "which the mesostructure renderer draws with");
-    impl_ = std::make_unique<Impl>(context, maps, options);
-    impl_->writeParams(maps);
+}
+} // namespace
+
+MesoRenderer::MesoRenderer(Context& context, const MesoMaps& maps, const MesoRenderOptions& options) {
+    validateScene(context, options);
+    const std::size_t vertices = options.base ? options.base->corners.size() : static_cast<std::size_t>(6 * options.quads * options.quads);
+    validateLook(context, maps, options, options, 0, options.base ? vertices : 0);
+    requireDynamicRendering(context);
+    impl_ = std::make_unique<Impl>(context, options);
+    impl_->writeFrame();
+    impl_->addPart(maps, options, 0, static_cast<std::uint32_t>(vertices));
+    impl_->create();
+}
+
+MesoRenderer::MesoRenderer(Context& context, std::span<const MesoPart> parts, const MesoRenderOptions& scene) {
+    validateScene(context, scene);
+    validateParts(parts, scene);
+    std::size_t first = 0;
+    MesoRenderOptions o = scene;
+    for (const MesoPart& p : parts) {
+        validateLook(context, *p.maps, p.look, scene, scene.base ? first : 0, scene.base ? 3 * static_cast<std::size_t>(p.triangles) : 0);
+        first += 3 * static_cast<std::size_t>(p.triangles);
+        o.depth = &p == parts.data() ? p.look.depth : std::max(o.depth, p.look.depth);
+    }
+    requireDynamicRendering(context);
+    impl_ = std::make_unique<Impl>(context, o);
+    impl_->writeFrame();
+    first = 0;
+    for (const MesoPart& p : parts) {
+        impl_->addPart(*p.maps, p.look, static_cast<std::uint32_t>(first), static_cast<std::uint32_t>(3 * static_cast<std::size_t>(p.triangles)));
+        first += 3 * static_cast<std::size_t>(p.triangles);
+    }
     impl_->create();
 }
 
@@ -311,6 +390,7 @@ MesoImage MesoRenderer::render() {
     out.shadowed.resize(pixels);
     out.rayOrigin.resize(pixels);
     out.rayDir.resize(pixels);
+    out.part.resize(pixels);
     for (std::size_t i = 0; i < pixels; ++i) {
         out.covered[i] = origin[i].w > 0.5f ? 1 : 0;
         out.iterations[i] = counts[i].x;
@@ -319,12 +399,18 @@ MesoImage MesoRenderer::render() {
         out.hit[i] = counts[i].w ? 1 : 0;
         out.rayOrigin[i] = glm::vec3(origin[i]);
         out.rayDir[i] = glm::vec3(dir[i]);
+        out.part[i] = static_cast<std::uint8_t>(std::clamp(dir[i].w, 0.0f, 255.0f));
     }
     return out;
 }
 
 MesoImage renderMeso(Context& context, const MesoMaps& maps, const MesoRenderOptions& options) {
     MesoRenderer r(context, maps, options);
+    return r.render();
+}
+
+MesoImage renderMeso(Context& context, std::span<const MesoPart> parts, const MesoRenderOptions& scene) {
+    MesoRenderer r(context, parts, scene);
     return r.render();
 }
 

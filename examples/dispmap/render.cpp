@@ -38,18 +38,10 @@ void writePng(const vulkan::RenderedImage& im, const std::string& path) {
 
 } // namespace
 
-vulkan::MesoRenderOptions mesoSceneRenderOptions(const MesoSceneDesc& s) {
-    vulkan::MesoRenderOptions o;
-    o.width = s.width;
-    o.height = s.height;
-    o.camera.eye = s.eye;
-    o.camera.target = s.target;
-    o.camera.up = s.up;
-    o.camera.fovYDeg = s.fov;
-    o.lightDirection = s.light;
+vulkan::MesoLook mesoSceneLook(const MesoSceneDesc& s) {
+    vulkan::MesoLook o;
     o.technique = s.technique;
     o.shadows = s.shadows;
-    o.tileSize = s.tile;
     o.depth = s.slab;
     o.checkerVoxels = s.checker;
     o.normalScale = s.normalScale;
@@ -57,36 +49,72 @@ vulkan::MesoRenderOptions mesoSceneRenderOptions(const MesoSceneDesc& s) {
     return o;
 }
 
+vulkan::MesoRenderOptions mesoSceneRenderOptions(const MesoSceneDesc& s) {
+    vulkan::MesoRenderOptions o;
+    static_cast<vulkan::MesoLook&>(o) = mesoSceneLook(s);
+    o.width = s.width;
+    o.height = s.height;
+    o.camera.eye = s.eye;
+    o.camera.target = s.target;
+    o.camera.up = s.up;
+    o.camera.fovYDeg = s.fov;
+    o.lightDirection = s.light;
+    o.tileSize = s.tile;
+    return o;
+}
+
 namespace {
-// A mesostructure scene (meso_scene.h): the maps its effects need, the fragment-shader marcher.
+// A mesostructure scene (meso_scene.h): the maps its effects need, the fragment-shader marcher;
+// several mesostructures each on their material's triangles, in one pass.
 int renderMesoCommand(const RenderArgs& a, const nlohmann::json& j) {
     const MesoSceneDesc s = parseMesoScene(j, a.scene, std::filesystem::path(a.scene).parent_path().string());
-    const MesoMaps maps = buildMesoSceneMaps(s);
-    auto ctx = makeContext(a.device, a.validation);
+    const std::vector<MesoSceneDesc> descs = mesoSceneParts(s);
     vulkan::MesoRenderOptions o = mesoSceneRenderOptions(s);
     o.base = buildMesoSceneBase(s);
-    o.albedo = buildMesoSceneAlbedo(s);
-    o.normalMap = buildMesoSceneNormals(s, o.base.get());
     o.frames = a.frames;
-    const vulkan::MesoImage im = vulkan::renderMeso(*ctx, maps, o);
+    std::vector<MesoMaps> maps;
+    maps.reserve(descs.size());
+    std::vector<vulkan::MesoPart> parts;
+    for (std::size_t i = 0; i < descs.size(); ++i) {
+        maps.push_back(buildMesoSceneMaps(descs[i]));
+        vulkan::MesoPart& p = parts.emplace_back();
+        p.maps = &maps.back();
+        p.look = mesoSceneLook(descs[i]);
+        p.look.albedo = buildMesoSceneAlbedo(descs[i]);
+        p.look.normalMap = buildMesoSceneNormals(descs[i], o.base.get());
+        p.triangles = !o.base ? 2 * o.quads * o.quads : o.base->groups.empty() ? o.base->triangleCount() : o.base->groups[i];
+    }
+    auto ctx = makeContext(a.device, a.validation);
+    const vulkan::MesoImage im = vulkan::renderMeso(*ctx, parts, o);
     if (!a.output.empty()) writeRgbaPng(a.output, im.width, im.height, im.rgba.data());
-    double iterations = 0;
-    std::size_t covered = 0;
+    std::vector<double> iterations(parts.size(), 0.0);
+    std::vector<std::size_t> covered(parts.size(), 0);
     for (std::size_t i = 0; i < im.iterations.size(); ++i)
-        if (im.covered[i]) {
-            iterations += im.iterations[i];
-            ++covered;
+        if (im.covered[i] && im.part[i] < parts.size()) {
+            iterations[im.part[i]] += im.iterations[i];
+            ++covered[im.part[i]];
         }
     const char* methods[] = {"distance map", "DDM", "relief", "POM"};
-    std::cout << "mesostructure scene '" << s.name << "' on " << ctx->deviceName() << "\n  " << methods[static_cast<int>(s.technique.method)]
-              << (s.technique.method == MesoMethod::Ddm ? (s.technique.quadrics ? " + quadric, cones " + s.cones.name() : ", cones " + s.cones.name()) : "")
-              << (s.shadows ? ", self-shadowing" : "") << (o.albedo ? ", albedo " + std::to_string(o.albedo->width()) + " x " + std::to_string(o.albedo->height()) + (o.albedo->levels() > 1 ? " with mips" : "") : "")
-              << (o.normalMap ? ", normal map " + std::to_string(o.normalMap->width()) + " x " + std::to_string(o.normalMap->height()) + (s.normalsFromHeight ? " from the heights" : "") : "")
-              << (o.base ? "; on '" + s.base->mesh + "' (" + std::to_string(o.base->triangleCount()) + " triangles)" : "") << "; maps built: " << (maps.field.h.empty() ? "" : "heights")
-              << (maps.distance.d.empty() ? "" : ", distance map") << (maps.ddm.grid.empty() ? "" : ", DDM")
-              << (maps.quadrics.q.empty() ? "" : ", quadrics") << "\n  " << im.width << " x " << im.height << ": GPU time "
-              << fixed(im.gpuMs, 3) << " ms (median of " << im.frames << " frames), mean iterations "
-              << fixed(covered ? iterations / static_cast<double>(covered) : 0.0, 2) << (a.output.empty() ? "" : ", wrote " + a.output) << "\n";
+    std::cout << "mesostructure scene '" << s.name << "' on " << ctx->deviceName()
+              << (o.base ? "; on '" + s.base->mesh + "' (" + std::to_string(o.base->triangleCount()) + " triangles)" : "") << "\n";
+    for (std::size_t i = 0; i < parts.size(); ++i) {
+        const MesoSceneDesc& d = descs[i];
+        const vulkan::MesoLook& l = parts[i].look;
+        const MesoMaps& m = maps[i];
+        std::cout << "  " << (parts.size() > 1 ? d.key + (d.material.empty() ? " (the other faces)" : " (material '" + d.material + "')") + ", " +
+                                                     std::to_string(parts[i].triangles) + " triangles: "
+                                               : std::string())
+                  << methods[static_cast<int>(d.technique.method)]
+                  << (d.technique.method == MesoMethod::Ddm ? (d.technique.quadrics ? " + quadric, cones " + d.cones.name() : ", cones " + d.cones.name()) : "")
+                  << (d.shadows ? ", self-shadowing" : "")
+                  << (l.albedo ? ", albedo " + std::to_string(l.albedo->width()) + " x " + std::to_string(l.albedo->height()) + (l.albedo->levels() > 1 ? " with mips" : "") : "")
+                  << (l.normalMap ? ", normal map " + std::to_string(l.normalMap->width()) + " x " + std::to_string(l.normalMap->height()) + (d.normalsFromHeight ? " from the heights" : "") : "")
+                  << "; maps built: " << (m.field.h.empty() ? "" : "heights") << (m.distance.d.empty() ? "" : ", distance map")
+                  << (m.ddm.grid.empty() ? "" : ", DDM") << (m.quadrics.q.empty() ? "" : ", quadrics") << "; mean iterations "
+                  << fixed(covered[i] ? iterations[i] / static_cast<double>(covered[i]) : 0.0, 2) << " over " << covered[i] << " pixels\n";
+    }
+    std::cout << "  " << im.width << " x " << im.height << ": GPU time " << fixed(im.gpuMs, 3) << " ms (median of " << im.frames << " frames)"
+              << (a.output.empty() ? "" : ", wrote " + a.output) << "\n";
     int status = 0;
     for (const std::string& m : ctx->takeValidationMessages()) {
         std::cerr << "validation: " << m << "\n";

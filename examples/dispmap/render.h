@@ -9,6 +9,7 @@ namespace dispmap {
 struct MesoSceneDesc;
 namespace vulkan {
 struct MesoRenderOptions;
+struct MesoLook;
 }
 } // namespace dispmap
 
@@ -38,6 +39,9 @@ struct RenderArgs {
 /// light, technique, shadows, tile, slab and checker; its base and albedo are built apart
 /// (buildMesoSceneBase, buildMesoSceneAlbedo), frames are the caller's.
 vulkan::MesoRenderOptions mesoSceneRenderOptions(const MesoSceneDesc& scene);
+/// The look of one of the scene's mesostructures (technique, shadows, slab, checker, the
+/// normal map's scale and green; its images are built apart).
+vulkan::MesoLook mesoSceneLook(const MesoSceneDesc& part);
 
 /// Renders one scene headless, writes the PNG, prints GPU time, patches and triangles.
 /// Returns the exit status (1 if the validation layer spoke).

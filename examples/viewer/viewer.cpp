@@ -72,10 +72,25 @@ Viewer::Viewer(const ViewerOptions& options) : options_(options) {
         meso_ = dispmap::isMesoScene(j);
         if (meso_) {
             mesoScene_ = dispmap::parseMesoScene(j, options_.scene, std::filesystem::path(options_.scene).parent_path().string());
-            mesoMaps_ = dispmap::buildMesoSceneMaps(mesoScene_);
             mesoBase_ = dispmap::buildMesoSceneBase(mesoScene_);
-            mesoAlbedo_ = dispmap::buildMesoSceneAlbedo(mesoScene_);
-            mesoNormals_ = dispmap::buildMesoSceneNormals(mesoScene_, mesoBase_.get());
+            const std::vector<dispmap::MesoSceneDesc> parts = dispmap::mesoSceneParts(mesoScene_);
+            mesoMaps_.reserve(parts.size()); // mesoParts_ point into it
+            for (std::size_t i = 0; i < parts.size(); ++i) {
+                const dispmap::MesoSceneDesc& d = parts[i];
+                dispmap::vulkan::MesoPart& p = mesoParts_.emplace_back();
+                p.maps = &mesoMaps_.emplace_back(dispmap::buildMesoSceneMaps(d));
+                p.look.technique = d.technique;
+                p.look.shadows = d.shadows;
+                p.look.depth = d.slab;
+                p.look.checkerVoxels = d.checker;
+                p.look.albedo = dispmap::buildMesoSceneAlbedo(d);
+                p.look.normalMap = dispmap::buildMesoSceneNormals(d, mesoBase_.get());
+                p.look.normalScale = d.normalScale;
+                p.look.normalGreenUp = d.normalGreenUp;
+                p.triangles = !mesoBase_ ? 2 * dispmap::vulkan::MesoRenderOptions{}.quads * dispmap::vulkan::MesoRenderOptions{}.quads
+                              : mesoBase_->groups.empty() ? mesoBase_->triangleCount()
+                                                          : mesoBase_->groups[i];
+            }
             width = mesoScene_.width;
             height = mesoScene_.height;
             orbit_ = Orbit::around(mesoScene_.eye, mesoScene_.target, mesoScene_.up);
@@ -261,7 +276,8 @@ std::string Viewer::effectsText() const {
     if (meso_) {
         const char* methods[] = {"distance map", "DDM", "relief", "POM"};
         return std::string("mesostructure, ") + methods[static_cast<int>(mesoScene_.technique.method)] +
-               (mesoScene_.shadows ? ", shadows" : "") + " (offscreen, copied into the swapchain image)";
+               (mesoScene_.shadows ? ", shadows" : "") + (mesoParts_.size() > 1 ? ", " + std::to_string(mesoParts_.size()) + " mesostructures" : "") +
+               " (offscreen, copied into the swapchain image)";
     }
     const dispmap::SurfaceEffects& e = scene_.effects;
     using dispmap::detail::sceneChoiceName; // the scene files' spellings

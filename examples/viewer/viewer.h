@@ -97,10 +97,9 @@ class Viewer {
 
     // Mesostructure scenes.
     dispmap::MesoSceneDesc mesoScene_;
-    std::optional<dispmap::MesoMaps> mesoMaps_;
+    std::vector<dispmap::MesoMaps> mesoMaps_; ///< one a mesostructure (mesoSceneParts)
+    std::vector<dispmap::vulkan::MesoPart> mesoParts_; ///< their looks and triangles, pointing at mesoMaps_
     std::shared_ptr<const dispmap::FrameMesh> mesoBase_; ///< the scene's base surface (none: the plane)
-    std::shared_ptr<const dispmap::MesoAlbedo> mesoAlbedo_; ///< the scene's colour (none: the checker)
-    std::shared_ptr<const dispmap::MesoAlbedo> mesoNormals_; ///< the scene's normal map (none: the height field's normals)
     bool mesoDirty_ = true;
     VkBuffer staging_ = VK_NULL_HANDLE;
     VkDeviceMemory stagingMemory_ = VK_NULL_HANDLE;

@@ -10,7 +10,7 @@ layout(std430, set = 0, binding = 5) readonly buffer MesoParams {
     vec4 background;
     ivec4 dims0;        // width, height, layers, block
     ivec4 dims1;        // gx, gy, gz, coneM
-    ivec4 dims2;        // coneN, the normal map's first word in the images, 0, 0
+    ivec4 dims2;        // coneN, the normal map's first word in the images, the part (MesoPart) drawn, 0
     vec4 tol;           // x: mesoRootTolerance<float>(), y: shadow-ray offset (voxels), z: normal-map scale, w: its greenT (kern::dmNormalMapTangent)
 } params;
 

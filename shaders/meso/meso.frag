@@ -40,7 +40,7 @@ layout(location = 4) in vec3 frameN;
 layout(location = 0) out vec4 outColor;
 layout(location = 1) out vec4 outHit;    // voxel-space hit point, t (w = -1: the ray missed)
 layout(location = 2) out vec4 outOrigin; // the view ray in voxel space: o, 1
-layout(location = 3) out vec4 outDir;    // d, 0
+layout(location = 3) out vec4 outDir;    // d, the part
 layout(location = 4) out uvec4 outCounts; // view iterations, shadow iterations, shadowed, hit
 
 void main() {
@@ -85,7 +85,7 @@ void main() {
         h = dmMarchHeightSearch(s, o, d, kLinear, kMethod == 3 ? -1 : kBinary);
     }
     outOrigin = vec4(o, 1.0);
-    outDir = vec4(d, 0.0);
+    outDir = vec4(d, float(params.dims2.z)); // w: which of the renderer's mesostructures drew the pixel
     if (!h.hit) {
         outColor = params.background;
         outHit = vec4(0.0, 0.0, 0.0, -1.0);

@@ -538,3 +538,126 @@ TEST_CASE("on Spot a normal map made from the heights shades as the height field
     CHECK(right < 0.5 * wrong);
     dmgpu::checkNoValidationMessages();
 }
+
+// --- Several mesostructures (MesoPart) ------------------------------------------------------
+namespace {
+// Spot's triangles in two groups by ptex face (even faces first: part 0), and a second
+// mesostructure unlike the first: another field, isotropic cones, another size.
+struct TwoParts {
+    std::shared_ptr<const dispmap::FrameMesh> base;
+    MesoMaps waves;
+    std::vector<dispmap::vulkan::MesoPart> parts;
+    MesoRenderOptions scene;
+    TwoParts() {
+        auto grouped = std::make_shared<dispmap::FrameMesh>(*spotBase());
+        std::vector<int> groupOf(static_cast<std::size_t>(*std::max_element(grouped->faces.begin(), grouped->faces.end()) + 1));
+        for (std::size_t f = 0; f < groupOf.size(); ++f) groupOf[f] = static_cast<int>(f % 2);
+        const std::vector<int> counts = dispmap::groupFrameMesh(*grouped, groupOf, 2);
+        base = grouped;
+        MesoTechnique distance;
+        distance.method = MesoMethod::DistanceMap;
+        distance.iterations = 48;
+        waves = dispmap::buildMesoMaps(dispmap::mesoFunctionField("waves", 32, 8),
+                                       dispmap::mesoMapOptionsFor(distance, false, dispmap::ConeSet{0, 0, false, true}));
+        scene = spotScene(MesoMethod::Ddm);
+        scene.base = base;
+        dispmap::vulkan::MesoPart a, b;
+        a.maps = &shadowMaps();
+        a.look = scene;
+        a.look.shadows = true;
+        a.triangles = counts[0];
+        b.maps = &waves;
+        b.look.technique = distance;
+        b.look.depth = 0.03;
+        b.look.checkerVoxels = 4;
+        b.triangles = counts[1];
+        parts = {a, b};
+    }
+    // Part k alone: its triangles as the whole base, drawn by the one-mesostructure constructor.
+    MesoRenderOptions alone(std::size_t k) const {
+        auto mesh = std::make_shared<dispmap::FrameMesh>();
+        const std::size_t first = k == 0 ? 0 : 3 * static_cast<std::size_t>(parts[0].triangles);
+        mesh->corners.assign(base->corners.begin() + static_cast<std::ptrdiff_t>(first),
+                             base->corners.begin() + static_cast<std::ptrdiff_t>(first + 3 * static_cast<std::size_t>(parts[k].triangles)));
+        MesoRenderOptions o = scene;
+        static_cast<dispmap::vulkan::MesoLook&>(o) = parts[k].look; // its depth: the far plane moves, not the rays
+        o.base = mesh;
+        return o;
+    }
+};
+} // namespace
+
+TEST_CASE("several mesostructures in one pass: each pixel as its part alone draws it", "[meso]") {
+    auto& ctx = dmgpu::context();
+    const bool strict = dispmap::parity::strictFor(ctx, dispmap::parity::Options{});
+    const TwoParts t;
+    const MesoImage both = dispmap::vulkan::renderMeso(ctx, t.parts, t.scene);
+    std::size_t drawn[2] = {0, 0}, same = 0, hits = 0;
+    const MesoImage alone[2] = {dispmap::vulkan::renderMeso(ctx, *t.parts[0].maps, t.alone(0)),
+                                dispmap::vulkan::renderMeso(ctx, *t.parts[1].maps, t.alone(1))};
+    for (std::size_t i = 0; i < both.covered.size(); ++i) {
+        if (!both.covered[i]) continue;
+        REQUIRE(both.part[i] < 2);
+        const std::size_t k = both.part[i];
+        ++drawn[k];
+        CHECK(alone[k].part[i] == 0);
+        if (!both.hit[i]) continue;
+        // A hit is the nearest fragment of all; alone, its part's nearest is the same fragment:
+        // the same ray, hit, iterations and colour, bit for bit (one pipeline, one fragment).
+        ++hits;
+        const MesoImage& a = alone[k];
+        same += a.covered[i] && a.hit[i] && a.rayOrigin[i] == both.rayOrigin[i] && a.rayDir[i] == both.rayDir[i] &&
+                        a.hitPoint[i] == both.hitPoint[i] && a.iterations[i] == both.iterations[i] &&
+                        a.shadowIterations[i] == both.shadowIterations[i] &&
+                        std::equal(a.rgba.begin() + static_cast<std::ptrdiff_t>(4 * i), a.rgba.begin() + static_cast<std::ptrdiff_t>(4 * i + 4),
+                                   both.rgba.begin() + static_cast<std::ptrdiff_t>(4 * i))
+                    ? 1u
+                    : 0u;
+    }
+    INFO(drawn[0] << " pixels of part 0, " << drawn[1] << " of part 1, " << hits << " hits, " << same << " as the part alone");
+    CHECK(drawn[0] > 200);
+    CHECK(drawn[1] > 200);
+    CHECK(same == hits);
+    // And each part's pixels against the CPU marcher with that part's maps and technique.
+    for (std::size_t k = 0; k < 2; ++k) {
+        MesoImage mine = both;
+        for (std::size_t i = 0; i < mine.covered.size(); ++i) mine.covered[i] = mine.covered[i] && mine.part[i] == k;
+        const RayParity p = rayParity(*t.parts[k].maps, t.parts[k].look.technique, mine);
+        INFO("part " << k << ": " << p.same << " of " << p.covered << " as the CPU marcher");
+        if (strict) CHECK(p.same == p.covered);
+    }
+    dmgpu::checkNoValidationMessages();
+}
+
+TEST_CASE("several mesostructures: bad parts are refused before anything is drawn", "[meso]") {
+    auto& ctx = dmgpu::context();
+    TwoParts t;
+    using dispmap::vulkan::MesoRenderer;
+    auto parts = t.parts;
+    parts[1].triangles += 1;
+    CHECK_THROWS_WITH(MesoRenderer(ctx, parts, t.scene), Catch::Contains("cover " + std::to_string(t.base->triangleCount() + 1) + " triangles"));
+    parts = t.parts;
+    parts[1].maps = nullptr;
+    CHECK_THROWS_WITH(MesoRenderer(ctx, parts, t.scene), Catch::Contains("mesostructure 1 has no maps"));
+    parts = t.parts;
+    parts[1].look.shadows = true; // isotropic cones serve shadows; the distance map's part has them
+    CHECK_NOTHROW(MesoRenderer(ctx, parts, t.scene));
+    parts[0].maps = &t.waves;
+    parts[0].look.shadows = false;
+    parts[1].maps = &shadowMaps();
+    parts[1].look.technique.iterations = 0;
+    CHECK_THROWS_WITH(MesoRenderer(ctx, parts, t.scene), Catch::Contains("at least one iteration"));
+    CHECK_THROWS_WITH(MesoRenderer(ctx, std::span<const dispmap::vulkan::MesoPart>{}, t.scene), Catch::Contains("0 mesostructures (1 .. 255)"));
+    MesoRenderOptions plane = smallScene(MesoMethod::Ddm);
+    CHECK_THROWS_WITH(MesoRenderer(ctx, t.parts, plane), Catch::Contains("several mesostructures need a base mesh"));
+    // One part on the plane: its two triangles a quad.
+    dispmap::vulkan::MesoPart one = t.parts[0];
+    one.triangles = 2 * plane.quads * plane.quads;
+    one.look.shadows = false;
+    const MesoImage a = dispmap::vulkan::renderMeso(ctx, std::span<const dispmap::vulkan::MesoPart>(&one, 1), plane);
+    static_cast<dispmap::vulkan::MesoLook&>(plane) = one.look;
+    const MesoImage b = dispmap::vulkan::renderMeso(ctx, shadowMaps(), plane);
+    CHECK(a.rgba == b.rgba);
+    CHECK(a.iterations == b.iterations);
+    dmgpu::checkNoValidationMessages();
+}

@@ -41,6 +41,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -80,7 +81,26 @@ struct MesoSceneDesc {
     FrameMeshOptions placement;
     UvInterpolation uvRule = UvInterpolation::Mesh;
     double tessellation = 8; ///< uniform factor, segments a base-face edge
+    /// Several mesostructures ("mesostructure" as an array, on a base): each is a whole
+    /// description, the scene's keys shared and its own mesostructure keys. This one is entry 0.
+    std::string material;         ///< "material": the OBJ material (usemtl) whose faces it covers; "": the faces no other claims
+    int part = 0;                 ///< its index in the array (0 for a single object)
+    std::string key = "mesostructure"; ///< its key in messages ("mesostructure[2]" in an array)
+    std::vector<MesoSceneDesc> others; ///< entry 0 only: the array's entries 1, 2, ...
 };
+
+/// The scene's mesostructures: `s` (without its `others`) and then each of its `others`, in
+/// the order of the scene file's array (buildMesoSceneBase groups the base's triangles in
+/// that order).
+inline std::vector<MesoSceneDesc> mesoSceneParts(const MesoSceneDesc& s) {
+    std::vector<MesoSceneDesc> parts{s};
+    parts[0].others.clear();
+    parts.insert(parts.end(), s.others.begin(), s.others.end());
+    return parts;
+}
+
+/// Most mesostructures in one scene: each has its own maps on the GPU and its own pipeline.
+inline constexpr std::size_t kMaxMesoParts = 16;
 
 /// Largest step counts of a mesostructure scene's marchers ("effects"): the iteration cap of
 /// the distance map and DDM marchers (4 times the 1024 of the table's DDM rows), relief / POM
@@ -313,6 +333,77 @@ inline void parseMesoBase(const nlohmann::json& b, const std::string& name, cons
 }
 } // namespace detail
 
+namespace detail {
+// The keys of one mesostructure (an object of "mesostructure", or of its array) into `s`, a
+// copy of the scene's description, and the checks that need them and the scene's effects.
+inline void parseMesoPart(const nlohmann::json& m, const std::string& baseDir, MesoSceneDesc& s) {
+    const std::string& name = s.name;
+    const std::string& where = s.key;
+    const auto fail = [&](const std::string& why) { return ArgumentError(name + ": " + why); };
+    mesoKeys(m, name, where,
+             {"material", "height", "function", "size", "layers", "depth", "cones", "block", "albedo", "normals", "normalScale", "normalGreen"});
+    if (m.contains("material")) {
+        if (!m["material"].is_string() || m["material"].get_ref<const std::string&>().empty())
+            throw fail("'" + where + ".material' must be a material's name (OBJ usemtl)");
+        s.material = m["material"].get<std::string>();
+    }
+    const auto path = [&](const char* key) {
+        if (!m[key].is_string()) throw fail("'" + where + "." + key + "' must be a file name");
+        const std::string& h = m[key].get_ref<const std::string&>();
+        if (h.empty()) throw fail("'" + where + "." + key + "' is empty");
+        if (h.size() > kMaxScenePathLength)
+            throw fail("'" + where + "." + key + "' is a path of " + std::to_string(h.size()) + " characters, longer than " +
+                       std::to_string(kMaxScenePathLength));
+        const std::filesystem::path p(h);
+        return p.is_absolute() || baseDir.empty() ? p.string() : (std::filesystem::path(baseDir) / p).string();
+    };
+    if (m.contains("height")) s.heightImage = path("height");
+    if (m.contains("albedo")) s.albedoImage = path("albedo");
+    if (m.contains("normals")) {
+        if (m["normals"].is_string() && m["normals"].get_ref<const std::string&>() == "height") s.normalsFromHeight = true;
+        else s.normalsImage = path("normals");
+    }
+    for (const char* key : {"normalScale", "normalGreen"})
+        if (m.contains(key) && !m.contains("normals")) throw fail("'" + where + "." + key + "' without '" + where + ".normals'");
+    s.normalScale = mesoNumber(m, "normalScale", s.normalScale, name, where + ".");
+    if (!(std::abs(s.normalScale) <= kMaxNormalScale))
+        throw fail("'" + where + ".normalScale' " + detail::drawNumber(s.normalScale) + " is not within +-" + detail::drawNumber(kMaxNormalScale));
+    if (m.contains("normalGreen")) {
+        const std::string g = m["normalGreen"].is_string() ? m["normalGreen"].get<std::string>() : "";
+        if (g != "up" && g != "down") throw fail("'" + where + ".normalGreen' must be \"up\" (OpenGL, glTF) or \"down\" (DirectX)");
+        s.normalGreenUp = g == "up";
+    }
+    if (m.contains("function")) {
+        if (!m["function"].is_string()) throw fail("'" + where + ".function' must be a name");
+        s.function = m["function"].get<std::string>();
+    }
+    if (s.heightImage.empty() && s.function != "grating" && s.function != "waves")
+        throw fail("'" + where + ".function': unknown function '" + mesoExcerpt(s.function) + "' (grating, waves)");
+    s.size = mesoNumber(m, "size", s.heightImage.empty() ? 64 : 0, name, where + ".");
+    s.layers = mesoNumber(m, "layers", s.layers, name, where + ".");
+    s.depth = mesoNumber(m, "depth", s.depth, name, where + ".");
+    s.block = mesoNumber(m, "block", s.block, name, where + ".");
+    if (m.contains("cones")) {
+        if (!m["cones"].is_string()) throw fail("'" + where + ".cones' must be \"MxN\" or \"isotropic\"");
+        try {
+            s.cones = parseConeSet(mesoExcerpt(m["cones"].get<std::string>()));
+        } catch (const ArgumentError& e) {
+            throw fail(std::string("'" + where + ".cones': ") + e.what());
+        }
+    }
+    if (s.layers < 2 || s.layers > kMaxMesoLayers) throw fail("'" + where + ".layers' out of range (2 .. 256)");
+    if (s.heightImage.empty() ? (s.size < 2 || s.size > kMaxMesoSize) : (s.size != 0 && (s.size < 2 || s.size > kMaxMesoSize)))
+        throw fail("'" + where + ".size' " + std::to_string(s.size) + " out of range (2 .. " + std::to_string(kMaxMesoSize) + ")" +
+                   (s.heightImage.empty() ? "" : " (or 0: the image's size)"));
+    if (s.depth != -1 && !(s.depth > 0 && s.depth <= s.layers))
+        throw fail("'" + where + ".depth' " + std::to_string(s.depth) + " is not in (0, layers = " + std::to_string(s.layers) + "]");
+    if (s.block < 1 || s.block > 32) throw fail("'" + where + ".block' " + std::to_string(s.block) + " is not in 1..32");
+    if (s.size > 0)
+        if (const std::string why = mesoBuildProblem(s.size, s.size, s.layers, mesoSceneMapOptions(s)); !why.empty())
+            throw fail("'" + where + "': " + why);
+}
+} // namespace detail
+
 /// Whether a scene file's JSON is a mesostructure scene (it has the "mesostructure" key).
 inline bool isMesoScene(const nlohmann::json& j) { return j.is_object() && j.contains("mesostructure"); }
 
@@ -329,53 +420,6 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
     s.name = name;
     const auto fail = [&](const std::string& why) { return ArgumentError(name + ": " + why); };
     mesoKeys(j, name, "", {"mesostructure", "camera", "light", "resolution", "tile", "slab", "checker", "effects", "base"});
-    const nlohmann::json& m = j["mesostructure"];
-    mesoKeys(m, name, "mesostructure",
-             {"height", "function", "size", "layers", "depth", "cones", "block", "albedo", "normals", "normalScale", "normalGreen"});
-    const auto path = [&](const char* key) {
-        if (!m[key].is_string()) throw fail(std::string("'mesostructure.") + key + "' must be a file name");
-        const std::string& h = m[key].get_ref<const std::string&>();
-        if (h.empty()) throw fail(std::string("'mesostructure.") + key + "' is empty");
-        if (h.size() > kMaxScenePathLength)
-            throw fail(std::string("'mesostructure.") + key + "' is a path of " + std::to_string(h.size()) + " characters, longer than " +
-                       std::to_string(kMaxScenePathLength));
-        const std::filesystem::path p(h);
-        return p.is_absolute() || baseDir.empty() ? p.string() : (std::filesystem::path(baseDir) / p).string();
-    };
-    if (m.contains("height")) s.heightImage = path("height");
-    if (m.contains("albedo")) s.albedoImage = path("albedo");
-    if (m.contains("normals")) {
-        if (m["normals"].is_string() && m["normals"].get_ref<const std::string&>() == "height") s.normalsFromHeight = true;
-        else s.normalsImage = path("normals");
-    }
-    for (const char* key : {"normalScale", "normalGreen"})
-        if (m.contains(key) && !m.contains("normals")) throw fail(std::string("'mesostructure.") + key + "' without 'mesostructure.normals'");
-    s.normalScale = mesoNumber(m, "normalScale", s.normalScale, name, "mesostructure.");
-    if (!(std::abs(s.normalScale) <= kMaxNormalScale))
-        throw fail("'mesostructure.normalScale' " + detail::drawNumber(s.normalScale) + " is not within +-" + detail::drawNumber(kMaxNormalScale));
-    if (m.contains("normalGreen")) {
-        const std::string g = m["normalGreen"].is_string() ? m["normalGreen"].get<std::string>() : "";
-        if (g != "up" && g != "down") throw fail("'mesostructure.normalGreen' must be \"up\" (OpenGL, glTF) or \"down\" (DirectX)");
-        s.normalGreenUp = g == "up";
-    }
-    if (m.contains("function")) {
-        if (!m["function"].is_string()) throw fail("'mesostructure.function' must be a name");
-        s.function = m["function"].get<std::string>();
-    }
-    if (s.heightImage.empty() && s.function != "grating" && s.function != "waves")
-        throw fail("'mesostructure.function': unknown function '" + mesoExcerpt(s.function) + "' (grating, waves)");
-    s.size = mesoNumber(m, "size", s.heightImage.empty() ? 64 : 0, name, "mesostructure.");
-    s.layers = mesoNumber(m, "layers", s.layers, name, "mesostructure.");
-    s.depth = mesoNumber(m, "depth", s.depth, name, "mesostructure.");
-    s.block = mesoNumber(m, "block", s.block, name, "mesostructure.");
-    if (m.contains("cones")) {
-        if (!m["cones"].is_string()) throw fail("'mesostructure.cones' must be \"MxN\" or \"isotropic\"");
-        try {
-            s.cones = parseConeSet(mesoExcerpt(m["cones"].get<std::string>()));
-        } catch (const ArgumentError& e) {
-            throw fail(std::string("'mesostructure.cones': ") + e.what());
-        }
-    }
     if (j.contains("camera")) {
         const nlohmann::json& c = j["camera"];
         mesoKeys(c, name, "camera", {"eye", "target", "up", "fov"});
@@ -439,13 +483,6 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
                        std::to_string(kMaxMesoLinearSteps) + " and " + std::to_string(kMaxMesoBinarySteps) +
                        " (more steps change no pixel)");
     }
-    if (s.layers < 2 || s.layers > kMaxMesoLayers) throw fail("'mesostructure.layers' out of range (2 .. 256)");
-    if (s.heightImage.empty() ? (s.size < 2 || s.size > kMaxMesoSize) : (s.size != 0 && (s.size < 2 || s.size > kMaxMesoSize)))
-        throw fail("'mesostructure.size' " + std::to_string(s.size) + " out of range (2 .. " + std::to_string(kMaxMesoSize) + ")" +
-                   (s.heightImage.empty() ? "" : " (or 0: the image's size)"));
-    if (s.depth != -1 && !(s.depth > 0 && s.depth <= s.layers))
-        throw fail("'mesostructure.depth' " + std::to_string(s.depth) + " is not in (0, layers = " + std::to_string(s.layers) + "]");
-    if (s.block < 1 || s.block > 32) throw fail("'mesostructure.block' " + std::to_string(s.block) + " is not in 1..32");
     // The renderer's rules, here so that no map is built for a scene it would refuse.
     if (!(s.fov >= kMinFovDeg && s.fov < 180))
         throw fail("'camera.fov' " + std::to_string(s.fov) + " is not in [" + detail::drawNumber(kMinFovDeg) + ", 180) degrees");
@@ -457,9 +494,28 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
     if (!s.base && !(s.up.x == 0 && s.up.y == 0 && s.up.z > 0)) throw fail("'camera.up' must be +z over the plane (another with a 'base')");
     if (!(glm::length(s.light) > 0)) throw fail("'light' is the zero vector");
     if (!s.base && s.shadows && !(s.light.z > 0)) throw fail("'light' must be above the horizon (z > 0) with 'effects.shadows'");
-    if (s.size > 0)
-        if (const std::string why = mesoBuildProblem(s.size, s.size, s.layers, mesoSceneMapOptions(s)); !why.empty())
-            throw fail("'mesostructure': " + why);
+    // The mesostructures: one object, or an array of them placed by material.
+    const nlohmann::json& ms = j["mesostructure"];
+    if (ms.is_array()) {
+        if (ms.empty() || ms.size() > kMaxMesoParts)
+            throw fail("'mesostructure' is an array of " + std::to_string(ms.size()) + " mesostructures (1 .. " + std::to_string(kMaxMesoParts) + ")");
+        if (!s.base) throw fail("'mesostructure' as an array needs a 'base' (its mesostructures lie on the base's materials)");
+    }
+    const std::size_t count = ms.is_array() ? ms.size() : 1;
+    const MesoSceneDesc scene = s;
+    for (std::size_t i = 0; i < count; ++i) {
+        MesoSceneDesc& part = i == 0 ? s : s.others.emplace_back(scene);
+        part.part = static_cast<int>(i);
+        part.key = ms.is_array() ? "mesostructure[" + std::to_string(i) + "]" : "mesostructure";
+        parseMesoPart(ms.is_array() ? ms[i] : ms, baseDir, part);
+        if (!part.material.empty() && !s.base) throw fail("'" + part.key + ".material' needs a 'base' (the plane has no materials)");
+        for (std::size_t k = 0; k < i; ++k) {
+            const MesoSceneDesc& other = k == 0 ? s : s.others[k - 1];
+            if (other.material == part.material)
+                throw fail(part.material.empty() ? "'" + other.key + "' and '" + part.key + "' both lack a 'material' (one mesostructure covers the faces no other claims)"
+                                                 : "'" + other.key + "' and '" + part.key + "' are both on material '" + mesoExcerpt(part.material) + "'");
+        }
+    }
     return s;
 }
 
@@ -473,11 +529,11 @@ inline MesoMaps buildMesoSceneMaps(const MesoSceneDesc& s) {
     const MesoMapOptions o = detail::mesoSceneMapOptions(s);
     const auto check = [&](int width, int height) {
         if (const std::string why = mesoBuildProblem(width, height, s.layers, o); !why.empty())
-            throw ArgumentError(s.name + ": 'mesostructure': " + why);
+            throw ArgumentError(s.name + ": '" + s.key + "': " + why);
     };
     if (!s.heightImage.empty()) {
         HeightImage img = readHeightPng(s.heightImage, s.size > 0 ? kMaxHeightImageSize : kMaxMesoSize,
-                                        " (give 'mesostructure.size' to box-filter it smaller)");
+                                        " (give '" + s.key + ".size' to box-filter it smaller)");
         if (s.size > 0 && s.size != img.width) img = downsampleHeightImage(img, s.size);
         check(img.width, img.height);
         field = mesoHeightFieldFromImage(img, s.layers, depth);
@@ -497,7 +553,7 @@ inline std::shared_ptr<const MesoAlbedo> buildMesoSceneAlbedo(const MesoSceneDes
     try {
         return std::make_shared<const MesoAlbedo>(mesoAlbedo(img.width, img.height, img.rgba, s.albedoMips));
     } catch (const ArgumentError& e) {
-        throw ArgumentError(s.name + ": 'mesostructure.albedo': " + e.what());
+        throw ArgumentError(s.name + ": '" + s.key + ".albedo': " + e.what());
     }
 }
 
@@ -532,16 +588,61 @@ inline std::shared_ptr<const MesoAlbedo> buildMesoSceneNormals(const MesoSceneDe
         const std::vector<std::uint8_t> rgba = normalMapFromHeights(heights, s.slab / (s.layers * tile));
         return std::make_shared<const MesoAlbedo>(mesoAlbedo(heights.width, heights.height, rgba, s.albedoMips));
     } catch (const ArgumentError& e) {
-        throw ArgumentError(s.name + ": 'mesostructure.normals': " + e.what());
+        throw ArgumentError(s.name + ": '" + s.key + ".normals': " + e.what());
     }
 }
+
+namespace detail {
+// Each ptex face's mesostructure (its index in mesoSceneParts) from its control face's
+// material (see buildMesoSceneBase).
+inline std::vector<int> mesoPartOfFace(const MesoSceneDesc& s, const ControlMesh& mesh) {
+    const std::vector<MesoSceneDesc> parts = mesoSceneParts(s);
+    const MeshDescription& d = mesh.description();
+    const auto list = [&] {
+        std::string names;
+        for (const std::string& m : d.materials) names += (names.empty() ? "" : ", ") + mesoExcerpt(m);
+        return names.empty() ? std::string("it names no material: OBJ usemtl") : "its materials: " + names;
+    };
+    // Each material's part, and the part of faces without one of their own.
+    int rest = -1;
+    std::vector<int> ofMaterial(d.materials.size(), -1);
+    for (const MesoSceneDesc& p : parts) {
+        if (p.material.empty()) {
+            rest = p.part;
+            continue;
+        }
+        const auto at = std::find(d.materials.begin(), d.materials.end(), p.material);
+        if (at == d.materials.end())
+            throw ArgumentError("'" + p.key + ".material' '" + mesoExcerpt(p.material) + "' is not a material of the mesh '" + d.name + "' (" +
+                                list() + ")");
+        ofMaterial[static_cast<std::size_t>(at - d.materials.begin())] = p.part;
+    }
+    std::vector<int> out(static_cast<std::size_t>(mesh.ptexFaceCount()), -1);
+    for (std::size_t f = 0; f < d.faceSizes.size(); ++f) {
+        const int m = d.faceMaterials.empty() ? -1 : d.faceMaterials[f];
+        const int part = m >= 0 && ofMaterial[static_cast<std::size_t>(m)] >= 0 ? ofMaterial[static_cast<std::size_t>(m)] : rest;
+        if (part < 0)
+            throw ArgumentError("face " + std::to_string(f + 1) + " of the mesh '" + d.name + "' (" +
+                                (m >= 0 ? "material '" + mesoExcerpt(d.materials[static_cast<std::size_t>(m)]) + "'" : std::string("no material")) +
+                                ") lies under no mesostructure: give one that material, or one without a 'material' for the faces no other claims");
+        const int first = mesh.ptex().GetFaceId(static_cast<int>(f));
+        const int count = d.faceSizes[f] == 4 ? 1 : d.faceSizes[f];
+        for (int k = 0; k < count; ++k) out[static_cast<std::size_t>(first + k)] = part;
+    }
+    return out;
+}
+} // namespace detail
 
 /// The scene's base surface as the renderer draws it (none without "base"): the mesh and its
 /// displacement built as a surface scene's (SceneSurface), tessellated uniformly, with the
 /// frame of every triangle corner (buildFrameMesh). Throws what those throw: FileError /
 /// MeshError for the mesh, ArgumentError naming the scene for UV placement on a mesh without
 /// texture coordinates, a singular frame, or more than kMaxFrameCorners / 3 triangles (from
-/// the factors, before anything is tessellated).
+/// the factors, before anything is tessellated). With several mesostructures (or one with a
+/// "material") the triangles are grouped by them (groupFrameMesh, in mesoSceneParts' order),
+/// each by its control face's OBJ material; ArgumentError for a "material" the mesh does not
+/// name, and for a face under no mesostructure (its material claimed by none, and no
+/// mesostructure without a "material").
 inline std::shared_ptr<const FrameMesh> buildMesoSceneBase(const MesoSceneDesc& s) {
     if (!s.base) return nullptr;
     const SceneSurface surface(*s.base);
@@ -558,7 +659,9 @@ inline std::shared_ptr<const FrameMesh> buildMesoSceneBase(const MesoSceneDesc& 
                                     "' has none (\"placement\": \"face\" tiles every face instead)");
             uv.emplace(surface.mesh, s.uvRule);
         }
-        return std::make_shared<const FrameMesh>(buildFrameMesh(surface.surface, tess, uv ? &*uv : nullptr, s.placement));
+        FrameMesh frames = buildFrameMesh(surface.surface, tess, uv ? &*uv : nullptr, s.placement);
+        if (!s.others.empty() || !s.material.empty()) groupFrameMesh(frames, detail::mesoPartOfFace(s, surface.mesh), static_cast<int>(s.others.size() + 1));
+        return std::make_shared<const FrameMesh>(std::move(frames));
     } catch (const ArgumentError& e) {
         throw ArgumentError(s.name + ": " + e.what());
     }

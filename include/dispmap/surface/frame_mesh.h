@@ -45,6 +45,12 @@ struct FrameVertex {
 /// Three corners a triangle, counter-clockwise around the surface's normal.
 struct FrameMesh {
     std::vector<FrameVertex> corners;
+    /// Per triangle, the ptex face it lies in (TriangleMesh::triangleFaces): what groups the
+    /// triangles by the material of their control face (groupFrameMesh).
+    std::vector<int> faces;
+    /// Triangles per group, in order, when groupFrameMesh has ordered them (group g is the
+    /// triangles after the first groups[0] + ... + groups[g - 1]); empty: not grouped.
+    std::vector<int> groups;
     int triangleCount() const { return static_cast<int>(corners.size() / 3); }
     /// The world width of a tile, averaged over the corners: the mean of (|pS| + |pT|) / 2
     /// (0 without corners). What a normal map made from heights takes as the tile's width on
@@ -134,6 +140,7 @@ inline FrameMesh buildFrameMesh(const DisplacedSurface& surface, const TriangleM
                             std::to_string(kMaxFrameCorners / 3) + " a frame mesh may have (a lower tessellation factor)");
     FrameMesh out;
     out.corners.resize(3 * tess.triangles.size());
+    out.faces = tess.triangleFaces;
     std::vector<char> singular(3 * tess.triangles.size(), 0);
     Parallel().each(tess.triangles.size(), 256, [&](std::size_t t) {
         const int face = tess.triangleFaces[t];
@@ -159,6 +166,47 @@ inline FrameMesh buildFrameMesh(const DisplacedSurface& surface, const TriangleM
                                 (map ? "a degenerate UV chart there" : "the surface's derivatives are dependent") + ")");
         }
     return out;
+}
+
+/// Orders the triangles of `mesh` by group, group 0 first, keeping their order within a group
+/// (a stable sort: the same mesh whatever else changes), so that each group is one range of
+/// corners to draw (the mesostructure renderer draws one mesostructure a range). `groupOfFace`
+/// gives each ptex face's group in 0 .. groups - 1. Returns the triangle count of each group.
+/// ArgumentError for a mesh whose `faces` do not match its corners, a face beyond
+/// `groupOfFace`, or a group out of range.
+inline std::vector<int> groupFrameMesh(FrameMesh& mesh, const std::vector<int>& groupOfFace, int groups) {
+    const std::size_t triangles = mesh.corners.size() / 3;
+    if (mesh.faces.size() != triangles || mesh.corners.size() % 3 != 0)
+        throw ArgumentError("groupFrameMesh: " + std::to_string(mesh.faces.size()) + " triangle faces for " +
+                            std::to_string(mesh.corners.size()) + " corners (three a triangle)");
+    if (groups < 1) throw ArgumentError("groupFrameMesh: " + std::to_string(groups) + " groups (at least one)");
+    std::vector<int> group(triangles), counts(static_cast<std::size_t>(groups), 0);
+    for (std::size_t t = 0; t < triangles; ++t) {
+        const int f = mesh.faces[t];
+        if (f < 0 || static_cast<std::size_t>(f) >= groupOfFace.size())
+            throw ArgumentError("groupFrameMesh: triangle " + std::to_string(t) + " lies in ptex face " + std::to_string(f) + ", beyond the " +
+                                std::to_string(groupOfFace.size()) + " faces grouped");
+        const int g = groupOfFace[static_cast<std::size_t>(f)];
+        if (g < 0 || g >= groups)
+            throw ArgumentError("groupFrameMesh: ptex face " + std::to_string(f) + " is in group " + std::to_string(g) + ", not in 0 .. " +
+                                std::to_string(groups - 1));
+        group[t] = g;
+        ++counts[static_cast<std::size_t>(g)];
+    }
+    // A counting sort: each group's first slot, then the triangles in order.
+    std::vector<std::size_t> next(static_cast<std::size_t>(groups), 0);
+    for (std::size_t g = 1; g < next.size(); ++g) next[g] = next[g - 1] + static_cast<std::size_t>(counts[g - 1]);
+    std::vector<FrameVertex> corners(mesh.corners.size());
+    std::vector<int> faces(triangles);
+    for (std::size_t t = 0; t < triangles; ++t) {
+        const std::size_t to = next[static_cast<std::size_t>(group[t])]++;
+        for (std::size_t c = 0; c < 3; ++c) corners[3 * to + c] = mesh.corners[3 * t + c];
+        faces[to] = mesh.faces[t];
+    }
+    mesh.corners = std::move(corners);
+    mesh.faces = std::move(faces);
+    mesh.groups = counts;
+    return counts;
 }
 
 } // namespace dispmap

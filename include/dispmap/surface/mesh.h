@@ -49,6 +49,11 @@ struct MeshDescription {
     std::vector<int> cornerVertices;
     std::vector<float> cornerWeights;
     std::vector<int> holes;             ///< face indices
+    /// Material names (OBJ `usemtl`) in the order of their first use, and each face's index
+    /// into them (-1: a face before any `usemtl`). Both empty when the file names no material.
+    /// Nothing of the surface: what several mesostructures are placed by (scene/meso.h).
+    std::vector<std::string> materials;
+    std::vector<int> faceMaterials;
     Sdc::Options::VtxBoundaryInterpolation boundary = Sdc::Options::VTX_BOUNDARY_EDGE_ONLY;
     Sdc::Options::CreasingMethod creasing = Sdc::Options::CREASE_UNIFORM;
     /// `t smoothtriangles`: Catmark's rule for triangles (TRI_SUB_SMOOTH changes the surface).
@@ -315,6 +320,7 @@ inline ObjScan scanObj(const std::string& text, const std::string& name) {
     std::vector<Reference> ignored;
     long firstFaceLine = 0;
     bool firstFaceUV = false;
+    int material = -1; // the last usemtl's index into d.materials
     std::size_t pos = 0;
     // A UTF-8 byte order mark is text; a byte below 0x20 other than \t \n \r \f \v, or DEL,
     // is not.
@@ -405,6 +411,7 @@ inline ObjScan scanObj(const std::string& text, const std::string& name) {
                         (firstFaceUV ? " has them" : " has none"));
             }
             d.faceSizes.push_back(static_cast<int>(n));
+            d.faceMaterials.push_back(material);
             s.faceLines.push_back(at.line);
             keep();
         } else if (key == "l" || key == "p") {
@@ -414,7 +421,16 @@ inline ObjScan scanObj(const std::string& text, const std::string& name) {
             for (std::size_t i = 1; i <= n; ++i) ignored.push_back({at.line, objCorner(at, tok[i], nv, nvt, s.normals)});
         } else if (key == "t") {
             objTag(at, tok, s, optionLines);
-        } else if (key == "o" || key == "g" || key == "s" || key == "mg" || key == "usemtl" || key == "mtllib" ||
+        } else if (key == "usemtl") {
+            // The faces that follow carry this material (a name, as tinyobjloader reads it:
+            // the rest of the line); the .mtl file itself is never read.
+            if (n < 1) at.fail("usemtl needs a material name");
+            std::string mat(tok[1]);
+            for (std::size_t i = 2; i <= n; ++i) (mat += ' ') += tok[i];
+            const auto known = std::find(d.materials.begin(), d.materials.end(), mat);
+            material = static_cast<int>(known - d.materials.begin());
+            if (known == d.materials.end()) d.materials.push_back(std::move(mat));
+        } else if (key == "o" || key == "g" || key == "s" || key == "mg" || key == "mtllib" ||
                    key == "usemap" || key == "maplib" || key == "lod" || key == "bevel" || key == "c_interp" ||
                    key == "d_interp" || key == "shadow_obj" || key == "trace_obj") {
             // Names, groups, smoothing groups, materials, display attributes: nothing of the
@@ -471,6 +487,7 @@ inline ObjScan scanObj(const std::string& text, const std::string& name) {
                     " faces");
     }
     if (!firstFaceUV) d.faceUVs.clear();
+    if (d.materials.empty()) d.faceMaterials.clear();
     return s;
 }
 
@@ -664,6 +681,13 @@ inline void ControlMesh::build() {
         if (!std::isfinite(w) || w < 0.0f) throw MeshError(n + ": crease sharpness must be finite and >= 0");
     for (float w : d.cornerWeights)
         if (!std::isfinite(w) || w < 0.0f) throw MeshError(n + ": corner sharpness must be finite and >= 0");
+    if (!d.faceMaterials.empty() && d.faceMaterials.size() != d.faceSizes.size())
+        throw MeshError(n + ": " + std::to_string(d.faceMaterials.size()) + " face materials for " + std::to_string(d.faceSizes.size()) +
+                        " faces");
+    for (int m : d.faceMaterials)
+        if (m < -1 || m >= static_cast<int>(d.materials.size()))
+            throw MeshError(n + ": a face's material " + std::to_string(m) + " is not one of the " + std::to_string(d.materials.size()) +
+                            " materials (-1: none)");
 
     refiner_ = createRefiner();
     const Far::TopologyLevel& l = refiner_->GetLevel(0);

@@ -21,6 +21,7 @@
 // hits and iteration counts (tests/gpu/test_meso_gpu.cpp).
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -38,23 +39,14 @@ struct MesoCamera {
     double fovYDeg = 45.0;
 };
 
-struct MesoRenderOptions {
-    int width = 256, height = 192;
-    MesoCamera camera;
-    glm::dvec3 lightDirection{0.5, 0.3, 0.8}; ///< towards the light (normalised here); z > 0 with shadows
+/// What one mesostructure looks like: its marcher, shadows, slab depth, images and checker.
+/// A scene of several mesostructures (MesoPart) gives each its own.
+struct MesoLook {
     MesoTechnique technique;
     bool shadows = false;      ///< shadow rays through the DDM (needs maps built with ConeSet::shadow or isotropic)
     int shadowIterations = 64; ///< cap of the shadow march
     double shadowOffset = 0.05; ///< voxels along the height field's normal where shadow rays start
-    double tileSize = 0.5;     ///< world units of one tile of the mesostructure (x and y)
     double depth = 0.08;       ///< world units of the slab (z)
-    double planeHalfSize = 1.0; ///< the plane spans [-h, h]^2
-    int quads = 4;             ///< quads per side of the plane
-    /// The base mesh instead of the plane (tileSize, planeHalfSize and quads then unused: its
-    /// texture coordinates place the tiles). At most kMaxFrameCorners corners (frame_mesh.h),
-    /// each frame solvable (frameIndependence >= kMinFrameIndependence, a unit normal) and
-    /// its texture coordinates within kMaxFrameVoxel voxels of the origin.
-    std::shared_ptr<const FrameMesh> base;
     /// The colour (meso/albedo.h: over one tile, with or without mips), sampled at the hit
     /// trilinearly at the pixel footprint's level; none: the checker below.
     std::shared_ptr<const MesoAlbedo> albedo;
@@ -65,11 +57,35 @@ struct MesoRenderOptions {
     std::shared_ptr<const MesoAlbedo> normalMap;
     double normalScale = 1.0;  ///< multiplies the normal map's x and y (glTF's normalTexture.scale), |scale| <= kMaxNormalScale
     bool normalGreenUp = true; ///< green towards the image's top (OpenGL, glTF); false: towards its bottom (DirectX)
+    double checkerVoxels = 8;  ///< checker period of the albedo, voxels (0: no checker)
+};
+
+/// The scene (image, camera, light, base) and the look of its one mesostructure (MesoLook).
+struct MesoRenderOptions : MesoLook {
+    int width = 256, height = 192;
+    MesoCamera camera;
+    glm::dvec3 lightDirection{0.5, 0.3, 0.8}; ///< towards the light (normalised here); z > 0 with shadows
+    double tileSize = 0.5;     ///< world units of one tile of the mesostructure (x and y)
+    double planeHalfSize = 1.0; ///< the plane spans [-h, h]^2
+    int quads = 4;             ///< quads per side of the plane
+    /// The base mesh instead of the plane (tileSize, planeHalfSize and quads then unused: its
+    /// texture coordinates place the tiles). At most kMaxFrameCorners corners (frame_mesh.h),
+    /// each frame solvable (frameIndependence >= kMinFrameIndependence, a unit normal) and
+    /// its texture coordinates within kMaxFrameVoxel voxels of the origin.
+    std::shared_ptr<const FrameMesh> base;
     double ambient = 0.2;
     glm::dvec3 background{0.12, 0.13, 0.16};
-    double checkerVoxels = 8;  ///< checker period of the albedo, voxels (0: no checker)
     int frames = 3;            ///< timed frames (the GPU time is their median)
     int warmup = 1;            ///< untimed first frames (lavapipe compiles shaders at first use)
+};
+
+/// One of several mesostructures on a base mesh: its maps, its look, and how many of the
+/// base's triangles it covers. The parts cover the base's triangles in order, part 0 the first
+/// `triangles` (FrameMesh::groups, groupFrameMesh).
+struct MesoPart {
+    const MesoMaps* maps = nullptr; ///< uploaded by the renderer's constructor (not kept)
+    MesoLook look;
+    int triangles = 0;
 };
 
 struct MesoImage {
@@ -82,6 +98,7 @@ struct MesoImage {
     std::vector<std::uint8_t> shadowed;      ///< 1 where the shadow ray hit the mesostructure (or the base turns away from the light)
     std::vector<glm::vec4> hitPoint;         ///< voxel-space hit point and t
     std::vector<glm::vec3> rayOrigin, rayDir; ///< the pixel's view ray in voxel space (where covered)
+    std::vector<std::uint8_t> part;          ///< which MesoPart drew the pixel (where covered; 0 with one mesostructure)
     double gpuMs = 0;                        ///< median GPU time of the timed frames (timestamps)
     int frames = 0;
 };
@@ -95,6 +112,8 @@ inline constexpr double kMaxFrameVoxel = 65536.0;
 /// H / tileSize, L / depth) per world unit; on a base mesh (W, H, L / depth), voxels per
 /// texture unit in s and t and per world unit along the normal.
 glm::dvec3 mesoVoxelsPerUnit(const MesoMaps& maps, const MesoRenderOptions& options);
+/// The same for one part of a scene: `look`'s depth, the scene's base or plane.
+glm::dvec3 mesoVoxelsPerUnit(const MesoMaps& maps, const MesoLook& look, const MesoRenderOptions& scene);
 
 class MesoRenderer {
   public:
@@ -106,6 +125,12 @@ class MesoRenderer {
     /// one with values that are not finite; an albedo or normal map whose words do not hold its
     /// levels, a normal-map scale that is not finite or beyond kMaxNormalScale.
     MesoRenderer(Context& context, const MesoMaps& maps, const MesoRenderOptions& options);
+    /// Several mesostructures on the scene's base mesh in one pass (`scene`'s own look is not
+    /// used): each part's maps and look, drawn over its range of triangles by a pipeline of its
+    /// own technique, all into one depth buffer. The rules above for each part, and an
+    /// ArgumentError without a base mesh, for no parts or more than 255, a part without maps,
+    /// or triangle counts that are negative or do not sum to the base's triangles.
+    MesoRenderer(Context& context, std::span<const MesoPart> parts, const MesoRenderOptions& scene);
     ~MesoRenderer();
     MesoRenderer(const MesoRenderer&) = delete;
     MesoRenderer& operator=(const MesoRenderer&) = delete;
@@ -121,6 +146,8 @@ class MesoRenderer {
 /// One technique in one call (what the examples' benchmark and scenes use): {gpuMs, image,
 /// iterations, ...} in a MesoImage.
 MesoImage renderMeso(Context& context, const MesoMaps& maps, const MesoRenderOptions& options);
+/// Several mesostructures in one call (MesoRenderer's second constructor).
+MesoImage renderMeso(Context& context, std::span<const MesoPart> parts, const MesoRenderOptions& scene);
 
 /// The world-to-clip matrix of the options' camera (Vulkan clip space, y down, depth 0..1).
 glm::dmat4 mesoViewProjection(const MesoRenderOptions& options);
