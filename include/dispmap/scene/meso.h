@@ -32,6 +32,11 @@
 // slopes: white's depth (slab depth / layers) over the tile's width (`tile` on the plane, the
 // base's mean tile width on a base).
 //
+// Several mesostructures: on a base, "mesostructure" may be an array of such objects, each with
+// a "material" (an OBJ usemtl name of the base mesh; at most one entry without it covers the
+// faces no other claims). The scene's keys are shared; mesoSceneParts lists the entries, and
+// buildMesoSceneBase groups the base's triangles by them (FrameMesh::groups).
+//
 // Effects, and only those: the maps the technique reads are the only maps built (a relief
 // scene builds no distance map and no DDM; shadow cones only with "shadows"), and the
 // technique's marcher is the only one compiled into the pipeline (specialisation constants).

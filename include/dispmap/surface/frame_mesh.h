@@ -171,7 +171,8 @@ inline FrameMesh buildFrameMesh(const DisplacedSurface& surface, const TriangleM
 /// Orders the triangles of `mesh` by group, group 0 first, keeping their order within a group
 /// (a stable sort: the same mesh whatever else changes), so that each group is one range of
 /// corners to draw (the mesostructure renderer draws one mesostructure a range). `groupOfFace`
-/// gives each ptex face's group in 0 .. groups - 1. Returns the triangle count of each group.
+/// gives each ptex face's group in 0 .. groups - 1. Returns the triangle count of each group
+/// (also kept in mesh.groups).
 /// ArgumentError for a mesh whose `faces` do not match its corners, a face beyond
 /// `groupOfFace`, or a group out of range.
 inline std::vector<int> groupFrameMesh(FrameMesh& mesh, const std::vector<int>& groupOfFace, int groups) {

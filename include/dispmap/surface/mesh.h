@@ -498,7 +498,8 @@ inline ObjScan scanObj(const std::string& text, const std::string& name) {
 /// tags). Every line is checked first (detail::scanObj), tinyobjloader then reads the
 /// vertices, texture coordinates and faces, and the two readings must agree. The tags are read
 /// by the scan only: tinyobjloader keeps at most 8192 values of a tag and loses the tags that
-/// follow a `g` or `o` after the last face. Throws MeshError
+/// follow a `g` or `o` after the last face. The scan also keeps each face's `usemtl` name
+/// (MeshDescription::materials; the .mtl file is not read). Throws MeshError
 /// "name:line: reason" for anything it does not read completely: binary bytes, malformed or
 /// non-finite numbers, faces with fewer than 3 vertices, indices that are 0, not integers or
 /// out of range, tags whose counts do not match their values, unknown tags and statements.
@@ -765,7 +766,7 @@ inline ControlMesh ControlMesh::fromObjFile(const std::string& path) {
 /// Writes the control mesh `d` as OBJ (v, f; 1-based; shortest round-trip decimal doubles),
 /// atomically: what parseObj reads back with the same positions and face order, hence the same
 /// topologyHash. Boundary rule, creases, corners, holes and the non-default rules are written as
-/// OpenSubdiv's `t` tags; texture coordinates are not written. Throws FileError naming the path.
+/// OpenSubdiv's `t` tags; texture coordinates and materials are not written. Throws FileError naming the path.
 inline void writeObj(const MeshDescription& d, const std::string& path) {
     std::string name = d.name; // one comment line, whatever the name holds
     std::replace_if(name.begin(), name.end(), [](char c) { return c == '\n' || c == '\r'; }, ' ');

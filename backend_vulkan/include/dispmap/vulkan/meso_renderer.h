@@ -16,6 +16,10 @@
 // (on a base mesh, a point whose base turns away from the light is in shadow). The colour is
 // the albedo image's (`albedo`) at the hit, filtered over its mips, or a checker.
 //
+// Several mesostructures on one base mesh (MesoPart: maps, MesoLook and a range of triangles)
+// are drawn in one pass, a pipeline each, into one depth buffer; MesoImage::part says which
+// drew each pixel.
+//
 // The marchers are those of include/dispmap/meso/march.h, bit for bit on lavapipe: the
 // per-pixel rays come back (rayOrigin, rayDir), and marchMeso<float> on them gives the same
 // hits and iteration counts (tests/gpu/test_meso_gpu.cpp).
