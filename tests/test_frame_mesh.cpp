@@ -4,6 +4,7 @@
 // cages, hard shapes and bad inputs, and the "base" object of mesostructure scenes.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -15,6 +16,7 @@
 #include "dispmap/scene/meso.h"
 #include "dispmap/surface/frame_mesh.h"
 #include "dispmap/surface/tessellator.h"
+#include "test_files.h"
 #include "test_support.h"
 
 namespace frame_mesh_test {
@@ -431,13 +433,21 @@ TEST_CASE("several mesostructures on a base, one an OBJ material", "[meso][frame
         REQUIRE(base);
         REQUIRE(base->groups.size() == 3);
         CHECK(base->groups[0] + base->groups[1] + base->groups[2] == base->triangleCount());
-        // The part of each triangle from its ptex face's control face's material.
+        // The part of each triangle from its control face's centroid, by the rule the file's
+        // materials were written with (its header), not from the materials read; the ptex faces
+        // of a control face from OpenSubdiv's adjacency of sub-faces (a quad's is itself).
         const ControlMesh cage = ControlMesh::fromObjFile(mesh);
         const MeshDescription& d = cage.description();
+        const Far::TopologyLevel& level = cage.base();
         std::vector<std::string> materialOfPtex(static_cast<std::size_t>(cage.ptexFaceCount()));
-        for (std::size_t f = 0; f < d.faceSizes.size(); ++f)
-            for (int k = 0; k < (d.faceSizes[f] == 4 ? 1 : d.faceSizes[f]); ++k)
-                materialOfPtex[static_cast<std::size_t>(cage.ptex().GetFaceId(static_cast<int>(f)) + k)] = d.materials[static_cast<std::size_t>(d.faceMaterials[f])];
+        for (int f = 0; f < level.GetNumFaces(); ++f) {
+            glm::dvec3 c(0.0);
+            const auto fv = level.GetFaceVertices(f);
+            for (int k = 0; k < fv.size(); ++k) c += d.positions[static_cast<std::size_t>(fv[k])] / double(fv.size());
+            const std::string m = c.z < -0.35 ? "head" : c.y < -0.45 ? "legs" : "hide";
+            for (int k = 0; k < (fv.size() == 4 ? 1 : fv.size()); ++k) materialOfPtex[static_cast<std::size_t>(cage.ptex().GetFaceId(f) + k)] = m;
+        }
+        CHECK(std::count(materialOfPtex.begin(), materialOfPtex.end(), "") == 0);
         std::size_t t = 0;
         for (int g = 0; g < 3; ++g)
             for (int i = 0; i < base->groups[static_cast<std::size_t>(g)]; ++i, ++t) {
@@ -473,6 +483,24 @@ TEST_CASE("several mesostructures on a base, one an OBJ material", "[meso][frame
                           Contains("'hide' is not a material of the mesh 'torus 8x6' (it names no material: OBJ usemtl)"));
         CHECK_THROWS_WITH(parse(R"({"mesostructure": [{}]})"), Contains("'mesostructure' as an array needs a 'base'"));
         CHECK_THROWS_WITH(parse(R"({"mesostructure": {"material": "hide"}})"), Contains("'mesostructure.material' needs a 'base'"));
+    }
+    SECTION("holes lie under none; a mesostructure must cover a face") {
+        // A strip of three quads, materials a, b, a; the b face a hole.
+        dmtest::TempDir dir("dispmap_materials_");
+        std::string obj = "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 3 0 0\nv 0 1 0\nv 1 1 0\nv 2 1 0\nv 3 1 0\n";
+        obj += "usemtl a\nf 1 2 6 5\nusemtl b\nf 2 3 7 6\nusemtl a\nf 3 4 8 7\nt hole 1/0/0 1\n";
+        dmtest::writeBytes((dir.path / "strip.obj").string(), std::vector<unsigned char>(obj.begin(), obj.end()));
+        const auto strip = [&](const std::string& parts) {
+            return parseMesoScene(nlohmann::json::parse(R"({"base": {"mesh": "strip.obj", "placement": "face", "tessellation": 2},
+                "camera": {"eye": [1.5, 0.5, 3], "target": [1.5, 0.5, 0], "up": [0, 1, 0]}, "mesostructure": )" + parts + "}"),
+                                  "strip.json", dir.path.string());
+        };
+        const auto base = buildMesoSceneBase(strip(R"([{"material": "a", "size": 16, "layers": 8}])"));
+        REQUIRE(base);
+        CHECK(base->groups == std::vector<int>{base->triangleCount()});
+        CHECK_THROWS_WITH(buildMesoSceneBase(strip(R"([{"material": "a"}, {"material": "b"}])")),
+                          Contains("'mesostructure[1]' covers no face of the mesh"));
+        CHECK_THROWS_WITH(buildMesoSceneBase(strip(R"([{"material": "a"}, {}])")), Contains("'mesostructure[1]' covers no face of the mesh"));
     }
     SECTION("the scene of tests/data") {
         const std::string path = dmtest::dataPath("scenes/meso_spot_materials.json");

@@ -234,7 +234,7 @@ TEST_CASE("OBJ: unknown statements are errors; o, g, s, usemtl, mtllib, l, p and
 
 TEST_CASE("OBJ: usemtl gives the faces that follow a material; the .mtl file is never read", "[inputs][obj]") {
     // Faces before the first usemtl have none (-1); a name used again is the same material;
-    // a name is the rest of the line, as tinyobjloader reads it.
+    // a name is the rest of the line, its words joined by one space.
     const std::string text = kStrip.substr(0, kStrip.find('f')) + "v 1 2 0\nf 1 2 5 4\nmtllib missing.mtl\nusemtl brick wall\nf 2 3 6 5\n" +
                              "usemtl grating\nf 4 5 7\nusemtl  brick   wall\nf 5 6 7\n";
     const MeshDescription d = parseObj(text, "m.obj");
@@ -245,7 +245,8 @@ TEST_CASE("OBJ: usemtl gives the faces that follow a material; the .mtl file is 
     const MeshDescription plain = parseObj(kStrip, "m.obj");
     CHECK(plain.materials.empty());
     CHECK(plain.faceMaterials.empty());
-    CHECK_THAT(meshError(kSquare + "usemtl\nf 1 2 3 4\n"), Contains("m.obj:5: usemtl needs a material name"));
+    // A usemtl without a name ends the material (tinyobjloader's reading too).
+    CHECK(parseObj(kSquare + "usemtl a\nusemtl\nf 1 2 3 4\n", "m.obj").faceMaterials == std::vector<int>{-1});
     // Built in code: the per-face list must match the faces and the names.
     MeshDescription bad = d;
     bad.faceMaterials.pop_back();

@@ -96,7 +96,14 @@ void validateLook(const Context& ctx, const MesoMaps& maps, const MesoLook& o, c
     if (t.method == MesoMethod::Relief && t.binary < 0) throw ArgumentError("meso renderer: relief mapping needs binary >= 0");
     if (t.method == MesoMethod::Ddm && (t.exitRule < 0 || t.exitRule > 1)) throw ArgumentError("meso renderer: exit rule must be 0 or 1");
     if (!std::isfinite(t.eps)) throw ArgumentError("meso renderer: eps must be finite");
-    if (!(o.depth > 0) || !std::isfinite(o.depth)) throw ArgumentError("meso renderer: tile size, depth and plane size must be finite and > 0, quads in 1..256");
+    if (!(o.depth > 0) || !std::isfinite(o.depth)) throw ArgumentError("meso renderer: the slab depth must be finite and > 0");
+    // The maps the technique reads (buildMesoMaps leaves out what its options do not ask for).
+    const bool ddm = t.method == MesoMethod::Ddm || o.shadows, quadrics = (t.method == MesoMethod::Ddm && t.quadrics) || o.shadows;
+    if ((ddm && maps.ddm.grid.empty()) || (t.method == MesoMethod::DistanceMap && maps.distance.d.empty()) ||
+        (quadrics && maps.quadrics.q.empty()))
+        throw ArgumentError(std::string("meso renderer: the maps lack the ") +
+                            (ddm && maps.ddm.grid.empty() ? "DDM" : quadrics && maps.quadrics.q.empty() ? "quadrics" : "distance map") +
+                            " the technique" + (o.shadows ? " or its shadows read" : " reads") + " (mesoMapOptionsFor builds what a technique needs)");
     if (!(o.checkerVoxels >= 0 && o.checkerVoxels <= 1e6)) throw ArgumentError("meso renderer: the checker period must be in [0, 1e6] voxels");
     if (scene.base)
         for (std::size_t i = first; i < first + count; ++i) {
@@ -151,6 +158,15 @@ void validateParts(std::span<const MesoPart> parts, const MesoRenderOptions& sce
                                               : std::int64_t{2} * scene.quads * scene.quads;
     if (sum != triangles)
         throw ArgumentError("meso renderer: the mesostructures cover " + std::to_string(sum) + " triangles, the base has " + std::to_string(triangles));
+    // A base grouped by groupFrameMesh: a part a group, in its order.
+    if (scene.base && !scene.base->groups.empty()) {
+        const std::vector<int>& g = scene.base->groups;
+        bool same = g.size() == parts.size();
+        for (std::size_t i = 0; same && i < g.size(); ++i) same = g[i] == parts[i].triangles;
+        if (!same)
+            throw ArgumentError("meso renderer: the base mesh has " + std::to_string(g.size()) +
+                                " groups of triangles (FrameMesh::groups); give a mesostructure each, with its group's triangle count, in order");
+    }
 }
 
 } // namespace
@@ -342,19 +358,25 @@ MesoRenderer::MesoRenderer(Context& context, std::span<const MesoPart> parts, co
     validateParts(parts, scene);
     std::size_t first = 0;
     MesoRenderOptions o = scene;
-    for (const MesoPart& p : parts) {
-        validateLook(context, *p.maps, p.look, scene, scene.base ? first : 0, scene.base ? 3 * static_cast<std::size_t>(p.triangles) : 0);
+    std::vector<std::uint32_t> firstVertex(parts.size());
+    for (std::size_t i = 0; i < parts.size(); ++i) {
+        const MesoPart& p = parts[i];
+        firstVertex[i] = static_cast<std::uint32_t>(first);
+        try {
+            validateLook(context, *p.maps, p.look, scene, scene.base ? first : 0, scene.base ? 3 * static_cast<std::size_t>(p.triangles) : 0);
+        } catch (const ArgumentError& e) { // the same message, naming the part
+            const std::string what = e.what(), prefix = "meso renderer: ";
+            throw ArgumentError(prefix + "mesostructure " + std::to_string(i) + ": " +
+                                (what.rfind(prefix, 0) == 0 ? what.substr(prefix.size()) : what));
+        }
         first += 3 * static_cast<std::size_t>(p.triangles);
-        o.depth = &p == parts.data() ? p.look.depth : std::max(o.depth, p.look.depth);
+        o.depth = i == 0 ? p.look.depth : std::max(o.depth, p.look.depth);
     }
     requireDynamicRendering(context);
     impl_ = std::make_unique<Impl>(context, o);
     impl_->writeFrame();
-    first = 0;
-    for (const MesoPart& p : parts) {
-        impl_->addPart(*p.maps, p.look, static_cast<std::uint32_t>(first), static_cast<std::uint32_t>(3 * static_cast<std::size_t>(p.triangles)));
-        first += 3 * static_cast<std::size_t>(p.triangles);
-    }
+    for (std::size_t i = 0; i < parts.size(); ++i)
+        impl_->addPart(*parts[i].maps, parts[i].look, firstVertex[i], static_cast<std::uint32_t>(3 * static_cast<std::size_t>(parts[i].triangles)));
     impl_->create();
 }
 

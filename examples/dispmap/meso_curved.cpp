@@ -27,6 +27,7 @@
 #include "dispmap/vulkan/context.h"
 #include "dispmap/vulkan/meso_renderer.h"
 #include "meso.h"
+#include "meso_scene_gpu.h"
 #include "render.h"
 
 namespace dispmap::figures {

@@ -17,6 +17,7 @@
 #include "dispmap/scene/surface.h"
 #include "dispmap/scene/meso.h"
 #include "dispmap/vulkan/meso_renderer.h"
+#include "meso_scene_gpu.h"
 #include "dispmap/vulkan/renderer.h"
 #include "figures.h"
 
@@ -38,52 +39,17 @@ void writePng(const vulkan::RenderedImage& im, const std::string& path) {
 
 } // namespace
 
-vulkan::MesoLook mesoSceneLook(const MesoSceneDesc& s) {
-    vulkan::MesoLook o;
-    o.technique = s.technique;
-    o.shadows = s.shadows;
-    o.depth = s.slab;
-    o.checkerVoxels = s.checker;
-    o.normalScale = s.normalScale;
-    o.normalGreenUp = s.normalGreenUp;
-    return o;
-}
-
-vulkan::MesoRenderOptions mesoSceneRenderOptions(const MesoSceneDesc& s) {
-    vulkan::MesoRenderOptions o;
-    static_cast<vulkan::MesoLook&>(o) = mesoSceneLook(s);
-    o.width = s.width;
-    o.height = s.height;
-    o.camera.eye = s.eye;
-    o.camera.target = s.target;
-    o.camera.up = s.up;
-    o.camera.fovYDeg = s.fov;
-    o.lightDirection = s.light;
-    o.tileSize = s.tile;
-    return o;
-}
-
 namespace {
 // A mesostructure scene (meso_scene.h): the maps its effects need, the fragment-shader marcher;
 // several mesostructures each on their material's triangles, in one pass.
 int renderMesoCommand(const RenderArgs& a, const nlohmann::json& j) {
     const MesoSceneDesc s = parseMesoScene(j, a.scene, std::filesystem::path(a.scene).parent_path().string());
-    const std::vector<MesoSceneDesc> descs = mesoSceneParts(s);
-    vulkan::MesoRenderOptions o = mesoSceneRenderOptions(s);
-    o.base = buildMesoSceneBase(s);
-    o.frames = a.frames;
-    std::vector<MesoMaps> maps;
-    maps.reserve(descs.size());
-    std::vector<vulkan::MesoPart> parts;
-    for (std::size_t i = 0; i < descs.size(); ++i) {
-        maps.push_back(buildMesoSceneMaps(descs[i]));
-        vulkan::MesoPart& p = parts.emplace_back();
-        p.maps = &maps.back();
-        p.look = mesoSceneLook(descs[i]);
-        p.look.albedo = buildMesoSceneAlbedo(descs[i]);
-        p.look.normalMap = buildMesoSceneNormals(descs[i], o.base.get());
-        p.triangles = !o.base ? 2 * o.quads * o.quads : o.base->groups.empty() ? o.base->triangleCount() : o.base->groups[i];
-    }
+    MesoSceneGpu scene = buildMesoSceneGpu(s);
+    scene.options.frames = a.frames;
+    const vulkan::MesoRenderOptions& o = scene.options;
+    const std::vector<MesoSceneDesc>& descs = scene.descs;
+    const std::vector<MesoMaps>& maps = scene.maps;
+    const std::vector<vulkan::MesoPart>& parts = scene.parts;
     auto ctx = makeContext(a.device, a.validation);
     const vulkan::MesoImage im = vulkan::renderMeso(*ctx, parts, o);
     if (!a.output.empty()) writeRgbaPng(a.output, im.width, im.height, im.rgba.data());

@@ -5,14 +5,6 @@
 #include <ostream>
 #include <string>
 
-namespace dispmap {
-struct MesoSceneDesc;
-namespace vulkan {
-struct MesoRenderOptions;
-struct MesoLook;
-}
-} // namespace dispmap
-
 namespace dispmap::figures {
 
 /// Most timed frames of `dispmap render` (each is drawn in full: against typos).
@@ -35,14 +27,6 @@ struct RenderArgs {
     std::string device;       ///< Vulkan device (index or name substring); empty: lavapipe
     bool validation = false;
 };
-/// The mesostructure renderer's options a scene states (scene/meso.h): image size, camera,
-/// light, technique, shadows, tile, slab and checker; its base and albedo are built apart
-/// (buildMesoSceneBase, buildMesoSceneAlbedo), frames are the caller's.
-vulkan::MesoRenderOptions mesoSceneRenderOptions(const MesoSceneDesc& scene);
-/// The look of one of the scene's mesostructures (technique, shadows, slab, checker, the
-/// normal map's scale and green; its images are built apart).
-vulkan::MesoLook mesoSceneLook(const MesoSceneDesc& part);
-
 /// Renders one scene headless, writes the PNG, prints GPU time, patches and triangles.
 /// Returns the exit status (1 if the validation layer spoke).
 int renderCommand(const RenderArgs& args);

@@ -72,29 +72,11 @@ Viewer::Viewer(const ViewerOptions& options) : options_(options) {
         meso_ = dispmap::isMesoScene(j);
         if (meso_) {
             mesoScene_ = dispmap::parseMesoScene(j, options_.scene, std::filesystem::path(options_.scene).parent_path().string());
-            mesoBase_ = dispmap::buildMesoSceneBase(mesoScene_);
-            const std::vector<dispmap::MesoSceneDesc> parts = dispmap::mesoSceneParts(mesoScene_);
-            mesoMaps_.reserve(parts.size()); // mesoParts_ point into it
-            for (std::size_t i = 0; i < parts.size(); ++i) {
-                const dispmap::MesoSceneDesc& d = parts[i];
-                dispmap::vulkan::MesoPart& p = mesoParts_.emplace_back();
-                p.maps = &mesoMaps_.emplace_back(dispmap::buildMesoSceneMaps(d));
-                p.look.technique = d.technique;
-                p.look.shadows = d.shadows;
-                p.look.depth = d.slab;
-                p.look.checkerVoxels = d.checker;
-                p.look.albedo = dispmap::buildMesoSceneAlbedo(d);
-                p.look.normalMap = dispmap::buildMesoSceneNormals(d, mesoBase_.get());
-                p.look.normalScale = d.normalScale;
-                p.look.normalGreenUp = d.normalGreenUp;
-                p.triangles = !mesoBase_ ? 2 * dispmap::vulkan::MesoRenderOptions{}.quads * dispmap::vulkan::MesoRenderOptions{}.quads
-                              : mesoBase_->groups.empty() ? mesoBase_->triangleCount()
-                                                          : mesoBase_->groups[i];
-            }
+            mesoGpu_ = dispmap::figures::buildMesoSceneGpu(mesoScene_);
             width = mesoScene_.width;
             height = mesoScene_.height;
             orbit_ = Orbit::around(mesoScene_.eye, mesoScene_.target, mesoScene_.up);
-            if (!mesoBase_) orbit_.minPitch = 0.05; // the renderer needs the camera above the plane
+            if (!mesoGpu_.options.base) orbit_.minPitch = 0.05; // the renderer needs the camera above the plane
         } else {
             scene_ = dispmap::parseSceneDocument(j, options_.scene, std::filesystem::path(options_.scene).parent_path().string());
         }
@@ -183,7 +165,7 @@ bool Viewer::press(char key) {
     if (key == 'r') {
         orbit_ = meso_ ? Orbit::around(mesoScene_.eye, mesoScene_.target, mesoScene_.up)
                        : Orbit::around(scene_.camera.eye, scene_.camera.target, scene_.camera.up);
-        if (meso_ && !mesoBase_) orbit_.minPitch = 0.05;
+        if (meso_ && !mesoGpu_.options.base) orbit_.minPitch = 0.05;
         orbitMoved_ = false;
         mesoDirty_ = true;
         return true;
@@ -276,7 +258,7 @@ std::string Viewer::effectsText() const {
     if (meso_) {
         const char* methods[] = {"distance map", "DDM", "relief", "POM"};
         return std::string("mesostructure, ") + methods[static_cast<int>(mesoScene_.technique.method)] +
-               (mesoScene_.shadows ? ", shadows" : "") + (mesoParts_.size() > 1 ? ", " + std::to_string(mesoParts_.size()) + " mesostructures" : "") +
+               (mesoScene_.shadows ? ", shadows" : "") + (mesoGpu_.parts.size() > 1 ? ", " + std::to_string(mesoGpu_.parts.size()) + " mesostructures" : "") +
                " (offscreen, copied into the swapchain image)";
     }
     const dispmap::SurfaceEffects& e = scene_.effects;

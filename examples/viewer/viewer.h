@@ -14,6 +14,7 @@
 #include "dispmap/scene/surface.h"
 #include "dispmap/vulkan/meso_renderer.h"
 #include "dispmap/vulkan/renderer.h"
+#include "meso_scene_gpu.h"
 #include "presenter.h"
 #include "vk_app.h"
 
@@ -97,9 +98,7 @@ class Viewer {
 
     // Mesostructure scenes.
     dispmap::MesoSceneDesc mesoScene_;
-    std::vector<dispmap::MesoMaps> mesoMaps_; ///< one a mesostructure (mesoSceneParts)
-    std::vector<dispmap::vulkan::MesoPart> mesoParts_; ///< their looks and triangles, pointing at mesoMaps_
-    std::shared_ptr<const dispmap::FrameMesh> mesoBase_; ///< the scene's base surface (none: the plane)
+    dispmap::figures::MesoSceneGpu mesoGpu_; ///< its maps and parts (examples/dispmap/meso_scene_gpu.h)
     bool mesoDirty_ = true;
     VkBuffer staging_ = VK_NULL_HANDLE;
     VkDeviceMemory stagingMemory_ = VK_NULL_HANDLE;

@@ -11,19 +11,13 @@ namespace viewer {
 void Viewer::renderMesoImage() {
     presenter_->waitIdle(); // the staging buffer may be read by a frame in flight
     const VkExtent2D extent = presenter_->extent();
-    dispmap::vulkan::MesoRenderOptions o;
+    dispmap::vulkan::MesoRenderOptions o = mesoGpu_.options;
     o.width = static_cast<int>(extent.width);
     o.height = static_cast<int>(extent.height);
     o.camera.eye = orbitMoved_ ? orbit_.eye() : mesoScene_.eye;
-    o.camera.target = mesoScene_.target;
-    o.camera.up = mesoScene_.up;
-    o.base = mesoBase_;
-    o.camera.fovYDeg = mesoScene_.fov;
-    o.lightDirection = mesoScene_.light;
-    o.tileSize = mesoScene_.tile;
     o.frames = 1;
     o.warmup = 0;
-    const dispmap::vulkan::MesoImage im = dispmap::vulkan::renderMeso(*context_, mesoParts_, o);
+    const dispmap::vulkan::MesoImage im = dispmap::vulkan::renderMeso(*context_, mesoGpu_.parts, o);
     mesoRgba_ = im.rgba;
     stats_.gpuMs = im.gpuMs;
     stats_.valid = true;

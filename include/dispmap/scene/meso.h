@@ -623,17 +623,29 @@ inline std::vector<int> mesoPartOfFace(const MesoSceneDesc& s, const ControlMesh
         ofMaterial[static_cast<std::size_t>(at - d.materials.begin())] = p.part;
     }
     std::vector<int> out(static_cast<std::size_t>(mesh.ptexFaceCount()), -1);
-    for (std::size_t f = 0; f < d.faceSizes.size(); ++f) {
-        const int m = d.faceMaterials.empty() ? -1 : d.faceMaterials[f];
+    std::vector<char> hole(d.faceSizes.size(), 0);
+    for (int h : d.holes) hole[static_cast<std::size_t>(h)] = 1;
+    std::vector<std::size_t> faces(parts.size(), 0);
+    const int nf = static_cast<int>(d.faceSizes.size());
+    for (int f = 0; f < nf; ++f) {
+        if (hole[static_cast<std::size_t>(f)]) continue; // no surface, no triangles: under none
+        const int m = d.faceMaterials.empty() ? -1 : d.faceMaterials[static_cast<std::size_t>(f)];
         const int part = m >= 0 && ofMaterial[static_cast<std::size_t>(m)] >= 0 ? ofMaterial[static_cast<std::size_t>(m)] : rest;
         if (part < 0)
             throw ArgumentError("face " + std::to_string(f + 1) + " of the mesh '" + d.name + "' (" +
                                 (m >= 0 ? "material '" + mesoExcerpt(d.materials[static_cast<std::size_t>(m)]) + "'" : std::string("no material")) +
                                 ") lies under no mesostructure: give one that material, or one without a 'material' for the faces no other claims");
-        const int first = mesh.ptex().GetFaceId(static_cast<int>(f));
-        const int count = d.faceSizes[f] == 4 ? 1 : d.faceSizes[f];
-        for (int k = 0; k < count; ++k) out[static_cast<std::size_t>(first + k)] = part;
+        ++faces[static_cast<std::size_t>(part)];
+        // Its ptex faces, as OpenSubdiv numbers them (one a quad, one a corner of another face).
+        const int first = mesh.ptex().GetFaceId(f), end = f + 1 < nf ? mesh.ptex().GetFaceId(f + 1) : mesh.ptexFaceCount();
+        for (int k = first; k < end; ++k) out[static_cast<std::size_t>(k)] = part;
     }
+    // Maps built for nothing take seconds and memory: a mesostructure must cover a face.
+    for (const MesoSceneDesc& p : parts)
+        if (faces[static_cast<std::size_t>(p.part)] == 0)
+            throw ArgumentError("'" + p.key + "' covers no face of the mesh '" + d.name + "' (" +
+                                (p.material.empty() ? std::string("every face is another's") : "no face of material '" + mesoExcerpt(p.material) + "'") +
+                                "): leave it out");
     return out;
 }
 } // namespace detail
@@ -646,8 +658,8 @@ inline std::vector<int> mesoPartOfFace(const MesoSceneDesc& s, const ControlMesh
 /// the factors, before anything is tessellated). With several mesostructures (or one with a
 /// "material") the triangles are grouped by them (groupFrameMesh, in mesoSceneParts' order),
 /// each by its control face's OBJ material; ArgumentError for a "material" the mesh does not
-/// name, and for a face under no mesostructure (its material claimed by none, and no
-/// mesostructure without a "material").
+/// name, a face (not a hole) under no mesostructure (its material claimed by none, and no
+/// mesostructure without a "material"), and a mesostructure that covers no face.
 inline std::shared_ptr<const FrameMesh> buildMesoSceneBase(const MesoSceneDesc& s) {
     if (!s.base) return nullptr;
     const SceneSurface surface(*s.base);

@@ -18,6 +18,7 @@
 #include <string>
 #include <string_view>
 #include <system_error>
+#include <unordered_map>
 #include <unordered_set>
 #include <utility>
 #include <vector>
@@ -321,6 +322,7 @@ inline ObjScan scanObj(const std::string& text, const std::string& name) {
     long firstFaceLine = 0;
     bool firstFaceUV = false;
     int material = -1; // the last usemtl's index into d.materials
+    std::unordered_map<std::string, int> materialIndex;
     std::size_t pos = 0;
     // A UTF-8 byte order mark is text; a byte below 0x20 other than \t \n \r \f \v, or DEL,
     // is not.
@@ -422,14 +424,18 @@ inline ObjScan scanObj(const std::string& text, const std::string& name) {
         } else if (key == "t") {
             objTag(at, tok, s, optionLines);
         } else if (key == "usemtl") {
-            // The faces that follow carry this material (a name, as tinyobjloader reads it:
-            // the rest of the line); the .mtl file itself is never read.
-            if (n < 1) at.fail("usemtl needs a material name");
-            std::string mat(tok[1]);
-            for (std::size_t i = 2; i <= n; ++i) (mat += ' ') += tok[i];
-            const auto known = std::find(d.materials.begin(), d.materials.end(), mat);
-            material = static_cast<int>(known - d.materials.begin());
-            if (known == d.materials.end()) d.materials.push_back(std::move(mat));
+            // The faces that follow carry this material: the rest of the line, its words
+            // joined by one space (tinyobjloader keeps the first word only; exporters write
+            // names with spaces); no name: no material. The .mtl file is never read.
+            std::string mat;
+            for (std::size_t i = 1; i <= n; ++i) (mat += i > 1 ? " " : "") += tok[i];
+            if (mat.empty()) {
+                material = -1;
+            } else {
+                const auto [it, added] = materialIndex.emplace(mat, static_cast<int>(d.materials.size()));
+                if (added) d.materials.push_back(std::move(mat));
+                material = it->second;
+            }
         } else if (key == "o" || key == "g" || key == "s" || key == "mg" || key == "mtllib" ||
                    key == "usemap" || key == "maplib" || key == "lod" || key == "bevel" || key == "c_interp" ||
                    key == "d_interp" || key == "shadow_obj" || key == "trace_obj") {

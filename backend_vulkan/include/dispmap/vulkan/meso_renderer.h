@@ -131,9 +131,11 @@ class MesoRenderer {
     MesoRenderer(Context& context, const MesoMaps& maps, const MesoRenderOptions& options);
     /// Several mesostructures on the scene's base mesh in one pass (`scene`'s own look is not
     /// used): each part's maps and look, drawn over its range of triangles by a pipeline of its
-    /// own technique, all into one depth buffer. The rules above for each part, and an
-    /// ArgumentError without a base mesh, for no parts or more than 255, a part without maps,
-    /// or triangle counts that are negative or do not sum to the base's triangles.
+    /// own technique, all into one depth buffer. The rules above for each part (the message
+    /// naming it), maps that lack what its technique reads, and an ArgumentError without a base
+    /// mesh, for no parts or more than 255, a part without maps, triangle counts that are
+    /// negative or do not sum to the base's triangles, or, on a grouped base
+    /// (FrameMesh::groups), that are not its groups'.
     MesoRenderer(Context& context, std::span<const MesoPart> parts, const MesoRenderOptions& scene);
     ~MesoRenderer();
     MesoRenderer(const MesoRenderer&) = delete;
@@ -154,6 +156,8 @@ MesoImage renderMeso(Context& context, const MesoMaps& maps, const MesoRenderOpt
 MesoImage renderMeso(Context& context, std::span<const MesoPart> parts, const MesoRenderOptions& scene);
 
 /// The world-to-clip matrix of the options' camera (Vulkan clip space, y down, depth 0..1).
+/// The far plane leaves room for the slab (`depth`); with several parts the renderer takes the
+/// deepest part's depth in place of the scene's.
 glm::dmat4 mesoViewProjection(const MesoRenderOptions& options);
 
 } // namespace dispmap::vulkan
