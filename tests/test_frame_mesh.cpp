@@ -484,6 +484,45 @@ TEST_CASE("several mesostructures on a base, one an OBJ material", "[meso][frame
         CHECK_THROWS_WITH(parse(R"({"mesostructure": [{}]})"), Contains("'mesostructure' as an array needs a 'base'"));
         CHECK_THROWS_WITH(parse(R"({"mesostructure": {"material": "hide"}})"), Contains("'mesostructure.material' needs a 'base'"));
     }
+    SECTION("each its own repeat and slab") {
+        const std::string three = R"([{"material": "hide", "size": 16, "layers": 8}, {"material": "head", "size": 16, "layers": 8},
+            {"material": "legs", "size": 16, "layers": 8)";
+        const auto same = buildMesoSceneBase(parse(head + three + "}]}"));
+        const MesoSceneDesc s = parse(head + three + R"(, "repeat": [2, 4], "slab": 0.5}]})");
+        CHECK(s.others[1].slab == 0.5);
+        CHECK(s.slab == 0.06);
+        CHECK(s.others[1].placement.repeat == glm::dvec2(2.0, 4.0));
+        const auto legs = buildMesoSceneBase(s);
+        REQUIRE(legs->groups == same->groups);
+        // The legs' frames at 2 and 4 tiles a UV unit instead of 1: pS halved, pT a quarter;
+        // the other parts' corners unchanged, bit for bit.
+        const std::size_t first = 3 * static_cast<std::size_t>(same->groups[0] + same->groups[1]);
+        for (std::size_t i = 0; i < same->corners.size(); ++i) {
+            const FrameVertex &a = same->corners[i], &b = legs->corners[i];
+            if (i < first) {
+                CHECK((a.pS == b.pS && a.tex == b.tex));
+            } else {
+                CHECK(glm::length(b.pS * 2.0 - a.pS) <= 1e-12 * glm::length(a.pS));
+                CHECK(glm::length(b.pT * 4.0 - a.pT) <= 1e-12 * glm::length(a.pT));
+            }
+        }
+        const auto bad = [&](const std::string& last, const std::string& why) {
+            INFO(last);
+            CHECK_THROWS_WITH(parse(head + three + last + "]}"), Contains(why));
+        };
+        bad(R"(, "repeat": 0})", "'mesostructure[2].repeat' must be in (0, 1e4] tiles");
+        bad(R"(, "repeat": "x"})", "'mesostructure[2].repeat' must be a number or [s, t]");
+        bad(R"(, "slab": -1})", "'mesostructure[2].slab' must be > 0");
+        CHECK_THROWS_WITH(parse(R"({"mesostructure": {"repeat": 2}})"), Contains("'mesostructure.repeat' needs a 'base'"));
+        // Per-face repeats given directly: one a ptex face, each in range.
+        const Built b(dmtest::shape("catmark_torus"), 2.0);
+        const UvMap uv(b.mesh);
+        FrameMeshOptions o;
+        o.faceRepeat.assign(3, glm::dvec2(1.0));
+        CHECK_THROWS_WITH(buildFrameMesh(b.surface, b.tess, &uv, o), Contains("3 face repeats for " + std::to_string(b.base.faceCount()) + " ptex faces"));
+        o.faceRepeat.assign(static_cast<std::size_t>(b.base.faceCount()), glm::dvec2(1.0, 0.0));
+        CHECK_THROWS_WITH(buildFrameMesh(b.surface, b.tess, &uv, o), Contains("a face's repeat 0.000000 is not in (0, 1e4] tiles"));
+    }
     SECTION("holes lie under none; a mesostructure must cover a face") {
         // A strip of three quads, materials a, b, a; the b face a hole.
         dmtest::TempDir dir("dispmap_materials_");

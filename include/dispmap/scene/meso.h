@@ -34,8 +34,9 @@
 //
 // Several mesostructures: on a base, "mesostructure" may be an array of such objects, each with
 // a "material" (an OBJ usemtl name of the base mesh; at most one entry without it covers the
-// faces no other claims). The scene's keys are shared; mesoSceneParts lists the entries, and
-// buildMesoSceneBase groups the base's triangles by them (FrameMesh::groups).
+// faces no other claims). The scene's keys are shared; an entry may give its own "repeat" and
+// "slab". mesoSceneParts lists the entries, and buildMesoSceneBase groups the base's triangles
+// by them (FrameMesh::groups).
 //
 // Effects, and only those: the maps the technique reads are the only maps built (a relief
 // scene builds no distance map and no DDM; shadow cones only with "shadows"), and the
@@ -298,6 +299,17 @@ inline MesoMapOptions mesoSceneMapOptions(const MesoSceneDesc& s) {
 } // namespace detail
 
 namespace detail {
+// A "repeat": tiles per UV unit or per face, a number or [s, t], each in (0, 1e4].
+inline glm::dvec2 mesoRepeat(const nlohmann::json& r, const std::string& scene, const std::string& key) {
+    glm::dvec2 out;
+    if (r.is_number()) out = glm::dvec2(r.get<double>());
+    else if (r.is_array() && r.size() == 2 && r[0].is_number() && r[1].is_number()) out = {r[0].get<double>(), r[1].get<double>()};
+    else throw ArgumentError(scene + ": '" + key + "' must be a number or [s, t]");
+    for (int i = 0; i < 2; ++i)
+        if (!(out[i] > 0 && out[i] <= 1e4)) throw ArgumentError(scene + ": '" + key + "' must be in (0, 1e4] tiles");
+    return out;
+}
+
 // The "base" object of a mesostructure scene (see the header): its surface keys go to the
 // surface scene parser (no displacement given: "zero"), the rest are the frame mesh's.
 inline void parseMesoBase(const nlohmann::json& b, const std::string& name, const std::string& baseDir, MesoSceneDesc& s) {
@@ -315,18 +327,7 @@ inline void parseMesoBase(const nlohmann::json& b, const std::string& name, cons
         else if (p == "face") s.placement.placement = FramePlacement::Face;
         else throw fail("unknown 'base.placement' '" + mesoExcerpt(p) + "' (uv, face)");
     }
-    if (b.contains("repeat")) {
-        const nlohmann::json& r = b["repeat"];
-        if (r.is_number()) {
-            s.placement.repeat = glm::dvec2(r.get<double>());
-        } else if (r.is_array() && r.size() == 2 && r[0].is_number() && r[1].is_number()) {
-            s.placement.repeat = {r[0].get<double>(), r[1].get<double>()};
-        } else {
-            throw fail("'base.repeat' must be a number or [s, t]");
-        }
-        for (int i = 0; i < 2; ++i)
-            if (!(s.placement.repeat[i] > 0 && s.placement.repeat[i] <= 1e4)) throw fail("'base.repeat' must be in (0, 1e4] tiles");
-    }
+    if (b.contains("repeat")) s.placement.repeat = mesoRepeat(b["repeat"], name, "base.repeat");
     if (b.contains("uv")) {
         const std::string u = b["uv"].is_string() ? b["uv"].get<std::string>() : "";
         const std::optional<UvInterpolation> rule = parseUvInterpolation(u);
@@ -346,7 +347,15 @@ inline void parseMesoPart(const nlohmann::json& m, const std::string& baseDir, M
     const std::string& where = s.key;
     const auto fail = [&](const std::string& why) { return ArgumentError(name + ": " + why); };
     mesoKeys(m, name, where,
-             {"material", "height", "function", "size", "layers", "depth", "cones", "block", "albedo", "normals", "normalScale", "normalGreen"});
+             {"material", "height", "function", "size", "layers", "depth", "cones", "block", "albedo", "normals", "normalScale", "normalGreen",
+              "repeat", "slab"});
+    // Its own tile size on the base and slab depth, in place of the scene's.
+    if (m.contains("repeat")) {
+        if (!s.base) throw fail("'" + where + ".repeat' needs a 'base' (on the plane 'tile' sizes the tiles)");
+        s.placement.repeat = mesoRepeat(m["repeat"], name, where + ".repeat");
+    }
+    s.slab = mesoNumber(m, "slab", s.slab, name, where + ".");
+    if (!(s.slab > 0)) throw fail("'" + where + ".slab' must be > 0");
     if (m.contains("material")) {
         if (!m["material"].is_string() || m["material"].get_ref<const std::string&>().empty())
             throw fail("'" + where + ".material' must be a material's name (OBJ usemtl)");
@@ -588,7 +597,15 @@ inline std::shared_ptr<const MesoAlbedo> buildMesoSceneNormals(const MesoSceneDe
             heights.height = f.height;
             heights.values = f.h;
         }
-        const double tile = base ? base->meanTileWidth() : s.tile;
+        // The tile's width on the base: over this mesostructure's own triangles on a grouped base.
+        double tile = s.tile;
+        if (base && !base->groups.empty() && static_cast<std::size_t>(s.part) < base->groups.size()) {
+            std::size_t first = 0;
+            for (int g = 0; g < s.part; ++g) first += static_cast<std::size_t>(base->groups[static_cast<std::size_t>(g)]);
+            tile = base->meanTileWidth(first, static_cast<std::size_t>(base->groups[static_cast<std::size_t>(s.part)]));
+        } else if (base) {
+            tile = base->meanTileWidth();
+        }
         if (!(tile > 0)) throw ArgumentError("the base has no tile width to take slopes over");
         const std::vector<std::uint8_t> rgba = normalMapFromHeights(heights, s.slab / (s.layers * tile));
         return std::make_shared<const MesoAlbedo>(mesoAlbedo(heights.width, heights.height, rgba, s.albedoMips));
@@ -676,8 +693,21 @@ inline std::shared_ptr<const FrameMesh> buildMesoSceneBase(const MesoSceneDesc& 
                                     "' has none (\"placement\": \"face\" tiles every face instead)");
             uv.emplace(surface.mesh, s.uvRule);
         }
-        FrameMesh frames = buildFrameMesh(surface.surface, tess, uv ? &*uv : nullptr, s.placement);
-        if (!s.others.empty() || !s.material.empty()) groupFrameMesh(frames, detail::mesoPartOfFace(s, surface.mesh), static_cast<int>(s.others.size() + 1));
+        if (s.others.empty() && s.material.empty())
+            return std::make_shared<const FrameMesh>(buildFrameMesh(surface.surface, tess, uv ? &*uv : nullptr, s.placement));
+        // Several mesostructures: each face's, its repeat where they differ, the triangles grouped.
+        const std::vector<int> partOf = detail::mesoPartOfFace(s, surface.mesh);
+        const std::vector<MesoSceneDesc> parts = mesoSceneParts(s);
+        FrameMeshOptions o = s.placement;
+        for (const MesoSceneDesc& p : parts)
+            if (p.placement.repeat != s.placement.repeat) {
+                o.faceRepeat.assign(partOf.size(), s.placement.repeat);
+                for (std::size_t f = 0; f < partOf.size(); ++f)
+                    if (partOf[f] >= 0) o.faceRepeat[f] = parts[static_cast<std::size_t>(partOf[f])].placement.repeat;
+                break;
+            }
+        FrameMesh frames = buildFrameMesh(surface.surface, tess, uv ? &*uv : nullptr, o);
+        groupFrameMesh(frames, partOf, static_cast<int>(parts.size()));
         return std::make_shared<const FrameMesh>(std::move(frames));
     } catch (const ArgumentError& e) {
         throw ArgumentError(s.name + ": " + e.what());

@@ -55,10 +55,14 @@ struct FrameMesh {
     /// The world width of a tile, averaged over the corners: the mean of (|pS| + |pT|) / 2
     /// (0 without corners). What a normal map made from heights takes as the tile's width on
     /// this base (scene/meso.h, buildMesoSceneNormals).
-    double meanTileWidth() const {
+    double meanTileWidth() const { return meanTileWidth(0, corners.size() / 3); }
+    /// The same over `count` triangles from triangle `first` (one group: groupFrameMesh); 0
+    /// for none or a range beyond the mesh.
+    double meanTileWidth(std::size_t first, std::size_t count) const {
+        if (count == 0 || first > corners.size() / 3 || count > corners.size() / 3 - first) return 0.0;
         double sum = 0;
-        for (const FrameVertex& v : corners) sum += 0.5 * (glm::length(v.pS) + glm::length(v.pT));
-        return corners.empty() ? 0.0 : sum / static_cast<double>(corners.size());
+        for (std::size_t i = 3 * first; i < 3 * (first + count); ++i) sum += 0.5 * (glm::length(corners[i].pS) + glm::length(corners[i].pT));
+        return sum / static_cast<double>(3 * count);
     }
 };
 
@@ -71,6 +75,9 @@ struct FrameMeshOptions {
     /// are the displaced surface's true derivatives) or Approximate (without it, §5.2: the
     /// frame of the approximate normals). Equal on a surface without displacement.
     NormalMode normals = NormalMode::Accurate;
+    /// Per ptex face, its own tiles per unit in place of `repeat` (several mesostructures of
+    /// different tile sizes on one base: scene/meso.h); empty: `repeat` on every face.
+    std::vector<glm::dvec2> faceRepeat = {};
 };
 
 /// Largest frame mesh (corners, three a triangle): 2^21, the 128 MiB (64 bytes a corner on the
@@ -100,16 +107,17 @@ namespace detail {
 inline bool frameAt(const DisplacedSurface& surface, const UvMap* uv, const FrameMeshOptions& o, int face, glm::dvec2 p, glm::dvec2 q,
                     FrameVertex& out) {
     const SurfaceSample<double> s = surface.evaluate(face, q.x, q.y, o.normals);
+    const glm::dvec2 repeat = o.faceRepeat.empty() ? o.repeat : o.faceRepeat[static_cast<std::size_t>(face)];
     glm::dvec2 ds, dt; // d(s, t)/du, d(s, t)/dv
     if (uv) {
         const UvSample w = uv->evaluate(face, q.x, q.y);
-        out.tex = uv->evaluate(face, p.x, p.y).uv * o.repeat;
-        ds = w.du * o.repeat;
-        dt = w.dv * o.repeat;
+        out.tex = uv->evaluate(face, p.x, p.y).uv * repeat;
+        ds = w.du * repeat;
+        dt = w.dv * repeat;
     } else {
-        out.tex = p * o.repeat;
-        ds = {o.repeat.x, 0.0};
-        dt = {0.0, o.repeat.y};
+        out.tex = p * repeat;
+        ds = {repeat.x, 0.0};
+        dt = {0.0, repeat.y};
     }
     // M = [[s_u, s_v], [t_u, t_v]] (columns ds, dt); [pS pT] = [f_u f_v] M^-1.
     const double det = ds.x * dt.y - dt.x * ds.y;
@@ -129,6 +137,13 @@ inline FrameMesh buildFrameMesh(const DisplacedSurface& surface, const TriangleM
     for (int i = 0; i < 2; ++i)
         if (!(o.repeat[i] > 0 && o.repeat[i] <= 1e4))
             throw ArgumentError("frame mesh: repeat " + std::to_string(o.repeat[i]) + " is not in (0, 1e4] tiles");
+    if (!o.faceRepeat.empty() && o.faceRepeat.size() != static_cast<std::size_t>(surface.base().faceCount()))
+        throw ArgumentError("frame mesh: " + std::to_string(o.faceRepeat.size()) + " face repeats for " +
+                            std::to_string(surface.base().faceCount()) + " ptex faces");
+    for (const glm::dvec2& r : o.faceRepeat)
+        for (int i = 0; i < 2; ++i)
+            if (!(r[i] > 0 && r[i] <= 1e4))
+                throw ArgumentError("frame mesh: a face's repeat " + std::to_string(r[i]) + " is not in (0, 1e4] tiles");
     const UvMap* map = o.placement == FramePlacement::Uv ? uv : nullptr;
     if (o.placement == FramePlacement::Uv && !map)
         throw ArgumentError("frame mesh: UV placement needs the mesh's texture coordinates (a mesh without UVs: use face placement)");
