@@ -113,5 +113,49 @@ TEST_CASE("a mesostructure scene's albedo", "[meso][albedo][scene]") {
     CHECK_THROWS_AS(buildMesoSceneAlbedo(scene(R"({"mesostructure": {"albedo": "missing.png"}})")), FileError);
 }
 
+TEST_CASE("an albedo paired with the height image colours each field sample with the block it averages", "[meso][albedo][scene]") {
+    // A smooth periodic image, as heights and as colour, 64 x 64; the field filtered to 16 x 16
+    // (fx = 4). Sample (i, j) is the mean of texels 4i .. 4i + 3: its colour must be the image's
+    // there, not the colour of texel 4i (1.5 texels off, what the albedo showed before
+    // mesoImageShift).
+    dmtest::TempDir dir("dispmap_albedo_shift_");
+    const int n = 64;
+    HeightImage h;
+    h.width = h.height = n;
+    RgbaImage c;
+    c.width = c.height = n;
+    for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) {
+            const double v = std::round(128 + 100 * std::sin(6.283185307179586 * x / n) * std::cos(6.283185307179586 * 2 * y / n));
+            h.values.push_back(static_cast<float>(v / 255.0));
+            for (int k = 0; k < 4; ++k) c.rgba.push_back(static_cast<std::uint8_t>(k == 3 ? 255 : v));
+        }
+    writeHeightPng16((dir.path / "h.png").string(), h);
+    writeRgbaPng((dir.path / "c.png").string(), n, n, c.rgba.data());
+    const MesoSceneDesc s = parseMesoScene(nlohmann::json::parse(R"({"mesostructure": {"height": "h.png", "size": 16, "layers": 16,
+        "depth": 16, "albedo": "c.png"}, "effects": {"mips": false}})"), "s.json", dir.path.string());
+    const MesoMaps maps = buildMesoSceneMaps(s);
+    const auto albedo = buildMesoSceneAlbedo(s);
+    REQUIRE(albedo);
+    CHECK(detail::mesoImageShift(s, n, n) == glm::dvec2(1.5));
+    double shifted = 0, before = 0;
+    for (int j = 0; j < 16; ++j)
+        for (int i = 0; i < 16; ++i) {
+            const double field = double(maps.field.h[static_cast<std::size_t>(j * 16 + i)]) / 16.0 * 255.0; // the block's mean, in levels
+            shifted = std::max(shifted, std::abs(255.0 * sampleMesoAlbedo<double>(*albedo, {i / 16.0, j / 16.0}, 0.0).x - field));
+            before = std::max(before, std::abs(double(c.rgba[4 * static_cast<std::size_t>(4 * j * n + 4 * i)]) - field));
+        }
+    INFO("largest difference from the block's mean: " << shifted << " levels read at the sample, " << before << " at texel 4i");
+    // The image is smooth: the block's mean and the bilinear value at its centre differ by the
+    // curvature over 1.5 texels (about 100 (2 pi 2 / 64)^2 1.5^2 / 2 = 4.3 levels at most) plus
+    // rounding; texel 4i is 1.5 texels off, about 100 (2 pi 2 / 64) 1.5 = 29 levels where the slope is steepest.
+    CHECK(shifted < 6.0);
+    CHECK(before > 3 * shifted);
+    // Nothing moves for a function's field or at the image's own size.
+    CHECK(detail::mesoImageShift(parseMesoScene(nlohmann::json::parse(R"({"mesostructure": {"size": 16}})"), "s.json", ""), n, n) == glm::dvec2(0.0));
+    CHECK(detail::mesoImageShift(parseMesoScene(nlohmann::json::parse(R"({"mesostructure": {"height": "h.png"}})"), "s.json", dir.path.string()), n, n) ==
+          glm::dvec2(0.0));
+}
+
 } // namespace
 } // namespace meso_albedo_test

@@ -17,11 +17,13 @@
 // C++ objects; libpng's structs and all buffers are owned by their callers, so a longjmp
 // never skips a destructor, and every libpng error becomes a FileError naming the file.
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -258,6 +260,26 @@ template <class Fail> PngHeader checkPngHeader(const std::vector<unsigned char>&
 }
 
 } // namespace detail
+
+/// The width and height a PNG file's header states, from its first 24 bytes (nothing decoded;
+/// readHeightPng and readRgbaPng check the rest). FileError naming the path for a file that
+/// cannot be opened, is not a regular file, or does not start with a PNG signature and IHDR.
+struct PngSize {
+    int width = 0, height = 0;
+};
+inline PngSize readPngSize(const std::string& path, const char* what = "PNG image") {
+    std::error_code ec;
+    if (std::filesystem::status(path, ec).type() != std::filesystem::file_type::regular)
+        detail::throwFileError("cannot open ", what, path, ec ? ec.message() : "not found or not a regular file");
+    detail::FilePtr f(std::fopen(path.c_str(), "rb"));
+    if (!f) detail::throwFileError("cannot open ", what, path, std::strerror(errno));
+    std::vector<unsigned char> bytes(24);
+    bytes.resize(std::fread(bytes.data(), 1, bytes.size(), f.get()));
+    if (bytes.size() < 24 || png_sig_cmp(bytes.data(), 0, 8) != 0 || std::memcmp(bytes.data() + 12, "IHDR", 4) != 0)
+        throw FileError(std::string(what) + " '" + path + "': not a PNG file (no signature and IHDR header)");
+    return {static_cast<int>(std::min<std::uint32_t>(detail::bigEndian32(bytes, 16), 1u << 30)),
+            static_cast<int>(std::min<std::uint32_t>(detail::bigEndian32(bytes, 20), 1u << 30))};
+}
 
 /// Reads a greyscale height image (see the top of this file for the accepted formats).
 /// maxSide (at most kMaxHeightImageSize) is the caller's limit per side, checked from the

@@ -558,12 +558,56 @@ inline MesoMaps buildMesoSceneMaps(const MesoSceneDesc& s) {
     return buildMesoMaps(field, o);
 }
 
+namespace detail {
+// Where an image over one tile must be read from so that it lines up with the height field of
+// `s`: a field filtered from a height image of width w to `size` (fx = w / size texels a
+// sample) puts sample i, the mean of texels fx i .. fx i + fx - 1, at texel fx i of the tile
+// (the images' convention: texel x at x / width), (fx - 1) / 2 texels before the centre of what
+// it averages. An image of that tile read (fx - 1) / (2 fx size) tiles further on shows each
+// sample's colour at the sample. In texels of a width x height image; 0 for a function's field
+// or a field at the image's own size.
+inline glm::dvec2 mesoImageShift(const MesoSceneDesc& s, int width, int height) {
+    if (s.heightImage.empty() || s.size <= 0) return glm::dvec2(0.0);
+    const PngSize h = readPngSize(s.heightImage, "height image");
+    const int fx = h.width / s.size, fy = h.height / s.size;
+    if (fx < 1 || fy < 1) return glm::dvec2(0.0); // buildMesoSceneMaps refuses it
+    return {0.5 * (fx - 1) / (double(fx) * s.size) * width, 0.5 * (fy - 1) / (double(fy) * s.size) * height};
+}
+
+// `img` read `shift` texels on (bilinear, wrapping; the image repeats every tile).
+inline RgbaImage shiftRgbaImage(const RgbaImage& img, glm::dvec2 shift) {
+    if (shift == glm::dvec2(0.0)) return img;
+    RgbaImage out = img;
+    const int w = img.width, h = img.height;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const double px = x + shift.x, py = y + shift.y;
+            const double x0 = std::floor(px), y0 = std::floor(py), fx = px - x0, fy = py - y0;
+            const auto at = [&](double a, double b, int c) {
+                const int i = static_cast<int>(a - std::floor(a / w) * w) % w, j = static_cast<int>(b - std::floor(b / h) * h) % h;
+                return double(img.rgba[4 * (static_cast<std::size_t>(j) * static_cast<std::size_t>(w) + static_cast<std::size_t>(i)) +
+                                       static_cast<std::size_t>(c)]);
+            };
+            for (int c = 0; c < 4; ++c) {
+                const double v = (1 - fy) * ((1 - fx) * at(x0, y0, c) + fx * at(x0 + 1, y0, c)) +
+                                 fy * ((1 - fx) * at(x0, y0 + 1, c) + fx * at(x0 + 1, y0 + 1, c));
+                out.rgba[4 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x)) + static_cast<std::size_t>(c)] =
+                    static_cast<std::uint8_t>(std::clamp(std::lround(v), 0L, 255L));
+            }
+        }
+    return out;
+}
+} // namespace detail
+
 /// The scene's albedo ("mesostructure.albedo", with its mips unless "effects.mips" is false),
-/// or none. FileError for an image that cannot be read, ArgumentError (naming the scene) for
+/// or none. Over a field filtered from a height image it is read (fx - 1) / 2 texels of that
+/// image on (detail::mesoImageShift), so that each height sample has the colour of the block
+/// it averages (as a normal map made from the heights does: fieldAlignedHeightImage). FileError for an image that cannot be read, ArgumentError (naming the scene) for
 /// one larger than kMaxMesoAlbedoSize.
 inline std::shared_ptr<const MesoAlbedo> buildMesoSceneAlbedo(const MesoSceneDesc& s) {
     if (s.albedoImage.empty()) return nullptr;
-    const RgbaImage img = readRgbaPng(s.albedoImage, kMaxMesoAlbedoSize);
+    RgbaImage img = readRgbaPng(s.albedoImage, kMaxMesoAlbedoSize);
+    img = detail::shiftRgbaImage(img, detail::mesoImageShift(s, img.width, img.height));
     try {
         return std::make_shared<const MesoAlbedo>(mesoAlbedo(img.width, img.height, img.rgba, s.albedoMips));
     } catch (const ArgumentError& e) {
@@ -581,7 +625,8 @@ inline std::shared_ptr<const MesoAlbedo> buildMesoSceneAlbedo(const MesoSceneDes
 inline std::shared_ptr<const MesoAlbedo> buildMesoSceneNormals(const MesoSceneDesc& s, const FrameMesh* base = nullptr) {
     try {
         if (!s.normalsImage.empty()) {
-            const RgbaImage img = readRgbaPng(s.normalsImage, kMaxMesoAlbedoSize);
+            RgbaImage img = readRgbaPng(s.normalsImage, kMaxMesoAlbedoSize);
+            img = detail::shiftRgbaImage(img, detail::mesoImageShift(s, img.width, img.height)); // as the albedo
             return std::make_shared<const MesoAlbedo>(mesoAlbedo(img.width, img.height, img.rgba, s.albedoMips));
         }
         if (!s.normalsFromHeight) return nullptr;
