@@ -151,6 +151,11 @@ TEST_CASE("an albedo paired with the height image colours each field sample with
     // rounding; texel 4i is 1.5 texels off, about 100 (2 pi 2 / 64) 1.5 = 29 levels where the slope is steepest.
     CHECK(shifted < 6.0);
     CHECK(before > 3 * shifted);
+    // The header read: its size; a missing file or one that is not a PNG, a FileError.
+    CHECK((readPngSize((dir.path / "h.png").string()).width == n && readPngSize((dir.path / "h.png").string()).height == n));
+    CHECK_THROWS_AS(readPngSize((dir.path / "missing.png").string()), FileError);
+    dmtest::writeBytes((dir.path / "text.png").string(), {'n', 'o', 't', ' ', 'a', ' ', 'p', 'n', 'g'});
+    CHECK_THROWS_WITH(readPngSize((dir.path / "text.png").string()), Contains("not a PNG file"));
     // Nothing moves for a function's field or at the image's own size.
     CHECK(detail::mesoImageShift(parseMesoScene(nlohmann::json::parse(R"({"mesostructure": {"size": 16}})"), "s.json", ""), n, n) == glm::dvec2(0.0));
     CHECK(detail::mesoImageShift(parseMesoScene(nlohmann::json::parse(R"({"mesostructure": {"height": "h.png"}})"), "s.json", dir.path.string()), n, n) ==
