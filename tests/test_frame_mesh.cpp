@@ -488,7 +488,7 @@ TEST_CASE("several mesostructures on a base, one an OBJ material", "[meso][frame
         const std::string three = R"([{"material": "hide", "size": 16, "layers": 8}, {"material": "head", "size": 16, "layers": 8},
             {"material": "legs", "size": 16, "layers": 8)";
         const auto same = buildMesoSceneBase(parse(head + three + "}]}"));
-        const MesoSceneDesc s = parse(head + three + R"(, "repeat": [2, 4], "slab": 0.5}]})");
+        const MesoSceneDesc s = parse(head + three + R"(, "repeat": [2, 4], "slab": 0.5, "normals": "height"}]})");
         CHECK(s.others[1].slab == 0.5);
         CHECK(s.slab == 0.06);
         CHECK(s.others[1].placement.repeat == glm::dvec2(2.0, 4.0));
@@ -506,6 +506,15 @@ TEST_CASE("several mesostructures on a base, one an OBJ material", "[meso][frame
                 CHECK(glm::length(b.pT * 4.0 - a.pT) <= 1e-12 * glm::length(a.pT));
             }
         }
+        // A normal map made from heights takes its slope over its own triangles' tile width
+        // (about half the whole mesh's here): not the map of the whole mesh's mean width.
+        const MesoSceneDesc part = mesoSceneParts(s)[2];
+        FrameMesh whole = *legs;
+        whole.groups.clear();
+        const double own = legs->meanTileWidth(first / 3, static_cast<std::size_t>(legs->groups[2]));
+        INFO("the legs' tile width " << own << ", the whole mesh's " << whole.meanTileWidth());
+        CHECK(own < 0.8 * whole.meanTileWidth());
+        CHECK(buildMesoSceneNormals(part, legs.get())->words != buildMesoSceneNormals(part, &whole)->words);
         const auto bad = [&](const std::string& last, const std::string& why) {
             INFO(last);
             CHECK_THROWS_WITH(parse(head + three + last + "]}"), Contains(why));

@@ -156,10 +156,24 @@ TEST_CASE("an albedo paired with the height image colours each field sample with
     CHECK_THROWS_AS(readPngSize((dir.path / "missing.png").string()), FileError);
     dmtest::writeBytes((dir.path / "text.png").string(), {'n', 'o', 't', ' ', 'a', ' ', 'p', 'n', 'g'});
     CHECK_THROWS_WITH(readPngSize((dir.path / "text.png").string()), Contains("not a PNG file"));
-    // Nothing moves for a function's field or at the image's own size.
-    CHECK(detail::mesoImageShift(parseMesoScene(nlohmann::json::parse(R"({"mesostructure": {"size": 16}})"), "s.json", ""), n, n) == glm::dvec2(0.0));
-    CHECK(detail::mesoImageShift(parseMesoScene(nlohmann::json::parse(R"({"mesostructure": {"height": "h.png"}})"), "s.json", dir.path.string()), n, n) ==
-          glm::dvec2(0.0));
+    // The shift by the colour image's size against the field's: half a texel less than half the
+    // ratio. Nothing moves for a function's field or an image of the field's size.
+    const auto shift = [&](const std::string& json, int w, int hgt) {
+        return detail::mesoImageShift(parseMesoScene(nlohmann::json::parse(json), "s.json", dir.path.string()), w, hgt);
+    };
+    CHECK(shift(R"({"mesostructure": {"height": "h.png", "size": 16}})", 128, 32) == glm::dvec2(3.5, 0.5));
+    CHECK(shift(R"({"mesostructure": {"height": "h.png", "size": 16}})", 16, 16) == glm::dvec2(0.0));
+    CHECK(shift(R"({"mesostructure": {"height": "h.png", "size": 32}})", 16, 16) == glm::dvec2(-0.25));
+    CHECK(shift(R"({"mesostructure": {"size": 16}})", n, n) == glm::dvec2(0.0));
+    CHECK(shift(R"({"mesostructure": {"height": "h.png"}})", n, n) == glm::dvec2(0.0));
+    // A 32 x 64 height image at "size" 32 is not filtered (its width): its field is 32 x 64.
+    HeightImage tall;
+    tall.width = 32;
+    tall.height = 64;
+    tall.values.assign(32 * 64, 0.5f);
+    writeHeightPng16((dir.path / "tall.png").string(), tall);
+    CHECK(shift(R"({"mesostructure": {"height": "tall.png", "size": 32}})", 32, 64) == glm::dvec2(0.0));
+    CHECK(shift(R"({"mesostructure": {"height": "tall.png", "size": 32}})", 64, 128) == glm::dvec2(0.5));
 }
 
 } // namespace

@@ -560,18 +560,22 @@ inline MesoMaps buildMesoSceneMaps(const MesoSceneDesc& s) {
 
 namespace detail {
 // Where an image over one tile must be read from so that it lines up with the height field of
-// `s`: a field filtered from a height image of width w to `size` (fx = w / size texels a
-// sample) puts sample i, the mean of texels fx i .. fx i + fx - 1, at texel fx i of the tile
-// (the images' convention: texel x at x / width), (fx - 1) / 2 texels before the centre of what
-// it averages. An image of that tile read (fx - 1) / (2 fx size) tiles further on shows each
-// sample's colour at the sample. In texels of a width x height image; 0 for a function's field
-// or a field at the image's own size.
+// `s`, in texels of that width x height image. Every image here is a grid of area samples of
+// the tile (a texel the mean of its square, as the field's samples are the means of the height
+// image's blocks), and the renderer puts texel x of a w-wide image at x / w of the tile
+// (kern::dmMesoImageBilinear; field sample i at voxel i), half a texel before the centre of
+// its square: half a field sample for the geometry, half a texel for the image. Read
+// (w / W - 1) / 2 texels on (W the field's width), an image shows at each sample the colour of
+// the square that sample averages: (fx - 1) / 2 for an image of the height image's size filtered
+// fx to 1, 0 at the field's own size. 0 for a function's field (point samples, no image).
 inline glm::dvec2 mesoImageShift(const MesoSceneDesc& s, int width, int height) {
-    if (s.heightImage.empty() || s.size <= 0) return glm::dvec2(0.0);
+    if (s.heightImage.empty()) return glm::dvec2(0.0);
     const PngSize h = readPngSize(s.heightImage, "height image");
-    const int fx = h.width / s.size, fy = h.height / s.size;
-    if (fx < 1 || fy < 1) return glm::dvec2(0.0); // buildMesoSceneMaps refuses it
-    return {0.5 * (fx - 1) / (double(fx) * s.size) * width, 0.5 * (fy - 1) / (double(fy) * s.size) * height};
+    // The field's samples: the image box-filtered to size x size, or the image itself
+    // (buildMesoSceneMaps filters when the size is given and is not the image's width).
+    const bool filtered = s.size > 0 && s.size != h.width;
+    const double W = filtered ? s.size : h.width, H = filtered ? s.size : h.height;
+    return {0.5 * (width / W - 1.0), 0.5 * (height / H - 1.0)};
 }
 
 // `img` read `shift` texels on (bilinear, wrapping; the image repeats every tile).
@@ -600,10 +604,11 @@ inline RgbaImage shiftRgbaImage(const RgbaImage& img, glm::dvec2 shift) {
 } // namespace detail
 
 /// The scene's albedo ("mesostructure.albedo", with its mips unless "effects.mips" is false),
-/// or none. Over a field filtered from a height image it is read (fx - 1) / 2 texels of that
-/// image on (detail::mesoImageShift), so that each height sample has the colour of the block
-/// it averages (as a normal map made from the heights does: fieldAlignedHeightImage). FileError for an image that cannot be read, ArgumentError (naming the scene) for
-/// one larger than kMaxMesoAlbedoSize.
+/// or none. Over a field made from a height image it is read so that each sample has the
+/// colour of the square it averages (detail::mesoImageShift: (fx - 1) / 2 texels on for an
+/// image of the height image's size filtered fx to 1, as a normal map made from the heights
+/// is: fieldAlignedHeightImage). FileError for an image that cannot be read, ArgumentError
+/// (naming the scene) for one larger than kMaxMesoAlbedoSize.
 inline std::shared_ptr<const MesoAlbedo> buildMesoSceneAlbedo(const MesoSceneDesc& s) {
     if (s.albedoImage.empty()) return nullptr;
     RgbaImage img = readRgbaPng(s.albedoImage, kMaxMesoAlbedoSize);
