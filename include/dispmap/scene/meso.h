@@ -221,6 +221,17 @@ inline HeightImage downsampleHeightImage(const HeightImage& img, int size) {
     return small;
 }
 
+namespace detail {
+// The bilinear value at (px, py) of a w x h grid that repeats (at(i, j) for i in [0, w), j in
+// [0, h)): what an image over one tile shows between its texels.
+template <class At> double bilinearWrapped(double px, double py, int w, int h, const At& at) {
+    const double x0 = std::floor(px), y0 = std::floor(py), fx = px - x0, fy = py - y0;
+    const auto wrap = [](double a, int n) { return static_cast<int>(a - std::floor(a / n) * n) % n; };
+    const int i0 = wrap(x0, w), j0 = wrap(y0, h), i1 = i0 + 1 == w ? 0 : i0 + 1, j1 = j0 + 1 == h ? 0 : j0 + 1;
+    return (1 - fy) * ((1 - fx) * at(i0, j0) + fx * at(i1, j0)) + fy * ((1 - fx) * at(i0, j1) + fx * at(i1, j1));
+}
+} // namespace detail
+
 /// The height image as the normal map of a scene's "normals": "height" sees it: the part
 /// that downsampleHeightImage(img, size) filters (fx size x fy size texels, fx = width / size),
 /// resampled bilinearly (wrapping in that part) (fx - 1) / 2 and (fy - 1) / 2 texels on, so that
@@ -238,14 +249,9 @@ inline HeightImage fieldAlignedHeightImage(const HeightImage& img, int size) {
     out.height = h;
     out.values.resize(static_cast<std::size_t>(w) * static_cast<std::size_t>(h));
     for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x) {
-            const double px = x + ox, py = y + oy;
-            const int x0 = static_cast<int>(std::floor(px)), y0 = static_cast<int>(std::floor(py));
-            const double fxr = px - x0, fyr = py - y0;
-            const auto at = [&](int a, int b) { return double(img.at(a % w, b % h)); };
-            const double v = (1 - fyr) * ((1 - fxr) * at(x0, y0) + fxr * at(x0 + 1, y0)) + fyr * ((1 - fxr) * at(x0, y0 + 1) + fxr * at(x0 + 1, y0 + 1));
-            out.values[static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x)] = static_cast<float>(v);
-        }
+        for (int x = 0; x < w; ++x)
+            out.values[static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x)] = static_cast<float>(
+                detail::bilinearWrapped(x + ox, y + oy, w, h, [&](int a, int b) { return double(img.at(a, b)); }));
     return out;
 }
 
@@ -582,23 +588,16 @@ inline glm::dvec2 mesoImageShift(const MesoSceneDesc& s, int width, int height) 
 inline RgbaImage shiftRgbaImage(const RgbaImage& img, glm::dvec2 shift) {
     if (shift == glm::dvec2(0.0)) return img;
     RgbaImage out = img;
-    const int w = img.width, h = img.height;
-    for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x) {
-            const double px = x + shift.x, py = y + shift.y;
-            const double x0 = std::floor(px), y0 = std::floor(py), fx = px - x0, fy = py - y0;
-            const auto at = [&](double a, double b, int c) {
-                const int i = static_cast<int>(a - std::floor(a / w) * w) % w, j = static_cast<int>(b - std::floor(b / h) * h) % h;
-                return double(img.rgba[4 * (static_cast<std::size_t>(j) * static_cast<std::size_t>(w) + static_cast<std::size_t>(i)) +
-                                       static_cast<std::size_t>(c)]);
-            };
-            for (int c = 0; c < 4; ++c) {
-                const double v = (1 - fy) * ((1 - fx) * at(x0, y0, c) + fx * at(x0 + 1, y0, c)) +
-                                 fy * ((1 - fx) * at(x0, y0 + 1, c) + fx * at(x0 + 1, y0 + 1, c));
-                out.rgba[4 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x)) + static_cast<std::size_t>(c)] =
+    const auto w = static_cast<std::size_t>(img.width);
+    for (int y = 0; y < img.height; ++y)
+        for (int x = 0; x < img.width; ++x)
+            for (std::size_t c = 0; c < 4; ++c) {
+                const double v = bilinearWrapped(x + shift.x, y + shift.y, img.width, img.height, [&](int i, int j) {
+                    return double(img.rgba[4 * (static_cast<std::size_t>(j) * w + static_cast<std::size_t>(i)) + c]);
+                });
+                out.rgba[4 * (static_cast<std::size_t>(y) * w + static_cast<std::size_t>(x)) + c] =
                     static_cast<std::uint8_t>(std::clamp(std::lround(v), 0L, 255L));
             }
-        }
     return out;
 }
 } // namespace detail
