@@ -13,6 +13,7 @@
 #include <string>
 
 #include "dispmap/meso/march.h"
+#include "dispmap/meso/solid.h"
 #include "dispmap/vulkan/buffer.h"
 #include "dispmap/vulkan/compute.h"
 #include "dispmap/vulkan/context.h"
@@ -36,6 +37,19 @@ MesoHeightField mesoParityField(int width, int height, int layers) {
     return mesoHeightField(width, height, layers, std::move(h));
 }
 
+MesoSolid mesoParitySolid() {
+    std::vector<glm::dvec3> v;
+    std::vector<std::array<int, 3>> t;
+    appendUvSphere({4, 4, 4}, 3.0, 8, v, t);   // on the floor
+    appendUvSphere({11, 10, 9}, 2.5, 8, v, t); // floating: an overhang
+    appendUvSphere({12, 3, 5}, 2.0, 6, v, t);
+    appendUvSphere({8, 13.5, 12}, 2.5, 8, v, t); // touches the tile's edge y = 16
+    v.push_back({0, 0, 1}); // pins the tile to [0, 16]^2 and the floor to z = 1
+    v.push_back({16, 16, 1});
+    t.push_back({static_cast<int>(v.size()) - 2, static_cast<int>(v.size()) - 2, static_cast<int>(v.size()) - 1}); // degenerate: ignored
+    return mesoSolidFromMesh(v, t, 16, 16, 16, 2, 0.0);
+}
+
 namespace {
 
 struct GpuRay {
@@ -51,6 +65,7 @@ struct Push {
     std::uint32_t count, rowStride;
 };
 static_assert(sizeof(Push) == 76);
+constexpr std::int32_t kSolidMethod = 4; // parity_meso.comp's method of the solid's march
 
 constexpr double kMesoFusedBound = 8; // parity.cpp's bound for other devices, in ULP of max(|t|, 1)
 
@@ -137,9 +152,45 @@ std::vector<GpuRay> shadowRays(const MesoHeightField& f, std::size_t n, RayGen& 
     return rays;
 }
 
+// Rays through the solid: view rays (d.z < 0) from the top over three periods, grazing, from
+// grid points along axes and diagonals, from anywhere in the slab (inside the beads too);
+// shadow rays (d.z > 0) from anywhere in the slab, a third grazing.
+std::vector<GpuRay> solidRays(const MesoSolid& s, std::size_t n, RayGen& g, bool up) {
+    const double W = s.width, H = s.height, L = s.layers;
+    std::vector<GpuRay> rays;
+    rays.reserve(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const std::size_t kind = i % 10;
+        glm::vec3 o(g.uniform(-W, 2.0 * W), g.uniform(-H, 2.0 * H), float(L)), d;
+        if (up) {
+            o.z = g.uniform(0.0, L);
+            d = g.direction(i % 3 == 0 ? g.uniform(0.01, 0.05) : g.uniform(0.05, 1.0));
+        } else if (kind < 4) {
+            d = g.direction(-g.uniform(0.05, 1.0));
+        } else if (kind < 6) {
+            d = g.direction(-g.uniform(0.01, 0.05));
+        } else if (kind == 6) {
+            o = glm::vec3(float(g.integer(-s.width, 2 * s.width)), float(g.integer(-s.height, 2 * s.height)), float(g.integer(1, s.layers)));
+            switch (g.integer(0, 3)) {
+            case 0: d = glm::vec3(0, 0, -1); break;
+            case 1: d = glm::normalize(glm::vec3(1, 0, -0.25f)); break;
+            case 2: d = glm::normalize(glm::vec3(0, -1, -0.5f)); break;
+            default: d = glm::normalize(glm::vec3(1, 1, -1)); break;
+            }
+        } else {
+            o.z = g.uniform(0.0, L);
+            d = g.direction(-g.uniform(0.01, 1.0));
+        }
+        rays.push_back(GpuRay{glm::vec4(o, 0.0f), glm::vec4(d, 0.0f)});
+    }
+    return rays;
+}
+
+enum class Maps { Cones, Isotropic, Solid, SolidIsotropic };
+
 struct Row {
     const char* name;
-    bool isotropic; // which maps: isotropic DDM or 4 x 1 + shadow cones
+    Maps maps; // isotropic DDM or 4 x 1 + shadow cones, of the field or of the solid
     MesoTechnique tq;
     int rays; // 0 view, 1 shadow, 2 half and half
 };
@@ -168,19 +219,24 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
     relief.linear = 32;
     relief.binary = 6;
     pom.linear = 32;
+    const Maps C = Maps::Cones, I = Maps::Isotropic, S = Maps::Solid, SI = Maps::SolidIsotropic;
     const Row rows[] = {
-        {"march DistanceMap fixed 32", false, technique(DM, 32, -1, false, 1), 0},
-        {"march DistanceMap eps 0.01 (cap 64)", false, technique(DM, 64, 0.01, false, 1), 0},
-        {"march Ddm 4x1 quadrics exit(v)+d", false, technique(DDM, 128, -1, true, 1), 0},
-        {"march Ddm 4x1 quadrics t+d", false, technique(DDM, 128, -1, true, 0), 0},
-        {"march Ddm 4x1 no quadrics exit(v)+d", false, technique(DDM, 128, -1, false, 1), 0},
-        {"march Ddm 4x1 no quadrics t+d", false, technique(DDM, 128, -1, false, 0), 0},
-        {"march Ddm 4x1+shadow shadow rays", false, technique(DDM, 128, -1, true, 1), 1},
-        {"march Ddm 4x1+shadow shadow rays t+d", false, technique(DDM, 128, -1, false, 0), 1},
-        {"march Ddm isotropic quadrics exit(v)+d", true, technique(DDM, 128, -1, true, 1), 2},
-        {"march Ddm isotropic no quadrics t+d", true, technique(DDM, 128, -1, false, 0), 2},
-        {"march Relief 32 + 6", false, relief, 0},
-        {"march POM 32", false, pom, 0},
+        {"march DistanceMap fixed 32", C, technique(DM, 32, -1, false, 1), 0},
+        {"march DistanceMap eps 0.01 (cap 64)", C, technique(DM, 64, 0.01, false, 1), 0},
+        {"march Ddm 4x1 quadrics exit(v)+d", C, technique(DDM, 128, -1, true, 1), 0},
+        {"march Ddm 4x1 quadrics t+d", C, technique(DDM, 128, -1, true, 0), 0},
+        {"march Ddm 4x1 no quadrics exit(v)+d", C, technique(DDM, 128, -1, false, 1), 0},
+        {"march Ddm 4x1 no quadrics t+d", C, technique(DDM, 128, -1, false, 0), 0},
+        {"march Ddm 4x1+shadow shadow rays", C, technique(DDM, 128, -1, true, 1), 1},
+        {"march Ddm 4x1+shadow shadow rays t+d", C, technique(DDM, 128, -1, false, 0), 1},
+        {"march Ddm isotropic quadrics exit(v)+d", I, technique(DDM, 128, -1, true, 1), 2},
+        {"march Ddm isotropic no quadrics t+d", I, technique(DDM, 128, -1, false, 0), 2},
+        {"march Relief 32 + 6", C, relief, 0},
+        {"march POM 32", C, pom, 0},
+        {"march Solid 4x1 exit(v)+d", S, technique(DDM, 256, -1, false, 1), 0},
+        {"march Solid 4x1 t+d", S, technique(DDM, 256, -1, false, 0), 0},
+        {"march Solid 4x1+shadow shadow", S, technique(DDM, 256, -1, false, 1), 1},
+        {"march Solid isotropic exit(v)+d", SI, technique(DDM, 256, -1, false, 1), 2},
     };
     std::vector<const Row*> selected;
     for (const Row& r : rows)
@@ -188,40 +244,57 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
     if (selected.empty()) return {};
     const bool strict = strictFor(ctx, opt);
     const std::size_t n = std::max<std::size_t>(opt.mesoRays, 64);
+    const auto needs = [&](Maps m) { return std::any_of(selected.begin(), selected.end(), [&](const Row* r) { return r->maps == m; }); };
 
-    // 16 x 16 x 16 voxels: every hard case, blocks of 4 (a mix of atlas and minimum blocks).
+    // 16 x 16 x 16 voxels: every hard case, blocks of 4 (a mix of atlas and minimum blocks);
+    // the solid: four beads, one on the floor, one at the tile's edge.
     const MesoHeightField field = mesoParityField(16, 16, 16);
     MesoMapOptions cones;
     cones.cones = ConeSet{4, 1, true, false};
     MesoMapOptions iso;
     iso.cones = ConeSet::all();
-    bool needCones = false, needIso = false;
-    for (const Row* r : selected) (r->isotropic ? needIso : needCones) = true;
-    const MesoMaps mapsCones = needCones ? buildMesoMaps(field, cones) : MesoMaps{};
-    const MesoMaps mapsIso = needIso ? buildMesoMaps(field, iso) : MesoMaps{};
+    MesoMapOptions solidOptions = cones;
+    solidOptions.distance = false;
+    MesoMapOptions solidIso = iso;
+    solidIso.distance = false;
+    const bool anySolid = needs(S) || needs(SI);
+    const MesoSolid solid = anySolid ? mesoParitySolid() : MesoSolid{};
 
     RayGen g(opt.seed ^ 0x6d65736fULL);
     const std::vector<GpuRay> view = viewRays(field, n, g), shadow = shadowRays(field, n, g);
-    std::vector<GpuRay> mixed(view.begin(), view.begin() + static_cast<std::ptrdiff_t>(n / 2));
-    mixed.insert(mixed.end(), shadow.begin(), shadow.begin() + static_cast<std::ptrdiff_t>(n - n / 2));
+    const auto half = [&](const std::vector<GpuRay>& a, const std::vector<GpuRay>& b) {
+        std::vector<GpuRay> m(a.begin(), a.begin() + static_cast<std::ptrdiff_t>(n / 2));
+        m.insert(m.end(), b.begin(), b.begin() + static_cast<std::ptrdiff_t>(n - n / 2));
+        return m;
+    };
+    const std::vector<GpuRay> mixed = half(view, shadow);
+    std::vector<GpuRay> solidView, solidShadow, solidMixed;
+    if (anySolid) {
+        solidView = solidRays(solid, n, g, false);
+        solidShadow = solidRays(solid, n, g, true);
+        solidMixed = half(solidView, solidShadow);
+    }
 
-    vulkan::ComputePipeline pipe(ctx, std::span<const std::uint32_t>(parity_meso_spv, sizeof(parity_meso_spv) / 4), 7, sizeof(Push));
+    vulkan::ComputePipeline pipe(ctx, std::span<const std::uint32_t>(parity_meso_spv, sizeof(parity_meso_spv) / 4), 9, sizeof(Push));
     vulkan::Buffer rayBuf(ctx, n * sizeof(GpuRay)), outBuf(ctx, n * sizeof(glm::uvec4));
     std::vector<KernelResult> results;
-    for (const bool isotropic : {false, true}) {
-        const MesoMaps& maps = isotropic ? mapsIso : mapsCones;
-        if (isotropic ? !needIso : !needCones) continue;
+    for (const Maps kind : {C, I, S, SI}) {
+        if (!needs(kind)) continue;
+        const bool isSolid = kind == S || kind == SI;
+        const MesoMaps maps = isSolid ? buildMesoSolidMaps(solid, kind == S ? solidOptions : solidIso)
+                                      : buildMesoMaps(field, kind == C ? cones : iso);
         const vulkan::MesoBuffers gpuMaps = vulkan::uploadMesoMaps(ctx, maps);
         for (const Row* row : selected) {
-            if (row->isotropic != isotropic) continue;
-            const std::vector<GpuRay>& rays = row->rays == 0 ? view : row->rays == 1 ? shadow : mixed;
+            if (row->maps != kind) continue;
+            const std::vector<GpuRay>& rays = isSolid ? (row->rays == 0 ? solidView : row->rays == 1 ? solidShadow : solidMixed)
+                                                      : (row->rays == 0 ? view : row->rays == 1 ? shadow : mixed);
             rayBuf.upload(rays.data(), rays.size() * sizeof(GpuRay));
             const auto count = static_cast<std::uint32_t>(rays.size());
             const std::uint32_t groupsX = std::min<std::uint32_t>((count + 63) / 64, 32768);
             const std::uint32_t groupsY = (count + groupsX * 64 - 1) / (groupsX * 64);
             const MesoTechnique& tq = row->tq;
             const Push push{vulkan::mesoGpuSize(maps),
-                            static_cast<std::int32_t>(tq.method),
+                            isSolid ? kSolidMethod : static_cast<std::int32_t>(tq.method),
                             tq.iterations,
                             static_cast<float>(tq.eps),
                             tq.quadrics ? 1 : 0,
@@ -231,12 +304,12 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
                             count,
                             groupsX * 64};
             const auto mb = gpuMaps.all();
-            const vulkan::Buffer* bufs[] = {mb[0], mb[1], mb[2], mb[3], mb[4], &rayBuf, &outBuf};
+            const vulkan::Buffer* bufs[] = {mb[0], mb[1], mb[2], mb[3], mb[4], &rayBuf, &outBuf, mb[5], mb[6]};
             KernelResult res;
             res.kernel = row->name;
             res.precision = "float";
-            res.contract = "march: sqrt, div";
-            res.unit = "t: ULP max(|t|,1); hit, n";  // bit-exact: hit, n and the bits of t (a zero t by value)
+            res.contract = isSolid ? "march: div" : "march: sqrt, div";
+            res.unit = isSolid ? "t: ULP max(|t|,1); hit,n,tri" : "t: ULP max(|t|,1); hit, n"; // bit-exact: these and the bits of t (a zero t by value)
             res.bound = strict ? 0.0 : kMesoFusedBound;
             res.inputs = rays.size();
             res.gpuSeconds = ctx.dispatch(pipe, bufs, glm::uvec3(groupsX, groupsY, 1), &push, sizeof push);
@@ -245,11 +318,21 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
             double sum = 0;
             for (std::size_t i = 0; i < rays.size(); ++i) {
                 const glm::vec3 o(rays[i].o), d(rays[i].d);
-                const MesoHit cpu = marchMeso<float>(maps, tq, glm::dvec3(o), glm::dvec3(d));
+                MesoHit cpu;
+                int entry = -1;
+                if (isSolid) {
+                    const MesoSolidHit h = marchDdmSolid<float>(CompressedDdmView{&maps.ddm}, maps.ddm.cones, maps.solid, glm::dvec3(o),
+                                                                glm::dvec3(d), tq.iterations, tq.exitRule);
+                    cpu = h;
+                    entry = h.entry;
+                } else {
+                    cpu = marchMeso<float>(maps, tq, glm::dvec3(o), glm::dvec3(d));
+                }
                 const auto tc = static_cast<float>(cpu.t);
                 float tg;
                 std::memcpy(&tg, &gpu[i].y, sizeof tg);
-                const bool sameDecision = (gpu[i].x != 0) == cpu.hit && static_cast<int>(gpu[i].z) == cpu.iterations;
+                const bool sameDecision = (gpu[i].x != 0) == cpu.hit && static_cast<int>(gpu[i].z) == cpu.iterations &&
+                                          static_cast<int>(gpu[i].w) - 1 == entry;
                 // A zero t is compared by value: a ray starting on the floor z = 0 gets
                 // dmPlaneHit = (0 - 0) / d.z = -0 in C++, and Mesa folds 0 - x into -x (+0 then),
                 // a signed-zero rewrite NoContraction does not stop. The hit point is the same.
@@ -269,7 +352,8 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
                     res.maxUlp = err;
                     std::ostringstream s;
                     s << std::setprecision(9) << "o=" << vec(o) << " d=" << vec(d) << ": cpu hit " << cpu.hit << " t " << tc << " n "
-                      << cpu.iterations << ", gpu hit " << gpu[i].x << " t " << tg << " n " << gpu[i].z << std::hexfloat << " (" << tc << " vs " << tg << ")";
+                      << cpu.iterations << " entry " << entry << ", gpu hit " << gpu[i].x << " t " << tg << " n " << gpu[i].z << " entry "
+                      << static_cast<int>(gpu[i].w) - 1 << std::hexfloat << " (" << tc << " vs " << tg << ")";
                     res.worstInput = s.str();
                 }
             }

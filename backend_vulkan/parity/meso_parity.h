@@ -15,9 +15,14 @@ namespace dispmap::parity {
 /// (a step of 40 % of the depth) near i = width - 3 and a flat floor at 0 for j < 2.
 MesoHeightField mesoParityField(int width, int height, int layers);
 
+/// The solid of the solid rows: four beads (meso/solid.h's UV spheres) in 16 x 16 x 16 voxels,
+/// one standing on the floor, one floating, one touching the tile's edge.
+MesoSolid mesoParitySolid();
+
 /// The marcher rows: Donnelly's distance map (fixed count, eps), the compressed DDM (4 x 1
 /// cones with shadow cones and isotropic; with and without quadrics; both exit rules; view,
-/// grazing, inside-the-solid and upward shadow rays), relief mapping and POM. `rays` rays per
+/// grazing, inside-the-solid and upward shadow rays), relief mapping, POM and the solid's
+/// march (4 x 1 + shadow cones and isotropic, both exit rules; the triangle hit compared too). `rays` rays per
 /// row (0: Options::mesoRays).
 std::vector<KernelResult> runMeso(vulkan::Context& context, const Options& options);
 

@@ -14,6 +14,13 @@ MesoGpuSize mesoGpuSize(const MesoMaps& maps) {
         !same(maps.ddm.width, maps.ddm.height, maps.ddm.layers) || maps.quadrics.width != f.width || maps.quadrics.height != f.height)
         throw ArgumentError("mesostructure maps: the height field, distance map, DDM and quadrics differ in size (build them with "
                             "buildMesoMaps)");
+    if (maps.isSolid() &&
+        (!same(maps.solid.width, maps.solid.height, maps.solid.layers) ||
+         maps.solid.entryStart.size() != static_cast<std::size_t>(f.width) * static_cast<std::size_t>(f.height) * static_cast<std::size_t>(f.layers) + 1 ||
+         maps.solid.entryStart.back() != maps.solid.entries.size()))
+        throw ArgumentError("mesostructure maps: the solid's triangle lists do not match its maps (build them with buildMesoSolidMaps)");
+    if (!maps.isSolid() && f.h.size() != static_cast<std::size_t>(f.width) * static_cast<std::size_t>(f.height))
+        throw ArgumentError("mesostructure maps: the height field has no heights");
     MesoGpuSize s;
     s.width = f.width;
     s.height = f.height;
@@ -43,7 +50,8 @@ MesoBuffers uploadMesoMaps(Context& ctx, const MesoMaps& maps) {
     std::size_t bytes = 0;
     MesoBuffers b{uploadVector(ctx, maps.field.h, bytes), uploadVector(ctx, maps.distance.d, bytes),
                   uploadVector(ctx, maps.ddm.grid, bytes), uploadVector(ctx, maps.ddm.atlas, bytes),
-                  uploadVector(ctx, maps.quadrics.q, bytes), 0};
+                  uploadVector(ctx, maps.quadrics.q, bytes), uploadVector(ctx, maps.isSolid() ? maps.solid.entryStart : std::vector<std::uint32_t>{}, bytes),
+                  uploadVector(ctx, packSolidEntries(maps.solid), bytes), 0};
     b.bytes = bytes;
     return b;
 }

@@ -96,9 +96,14 @@ void validateLook(const Context& ctx, const MesoMaps& maps, const MesoLook& o, c
     if (t.method == MesoMethod::Relief && t.binary < 0) throw ArgumentError("meso renderer: relief mapping needs binary >= 0");
     if (t.method == MesoMethod::Ddm && (t.exitRule < 0 || t.exitRule > 1)) throw ArgumentError("meso renderer: exit rule must be 0 or 1");
     if (!std::isfinite(t.eps)) throw ArgumentError("meso renderer: eps must be finite");
+    if (maps.isSolid() && t.method != MesoMethod::Ddm)
+        throw ArgumentError("meso renderer: a solid (non-height-field) mesostructure is marched by the DDM (technique 'ddm'); the others read heights");
+    if (maps.isSolid() && o.normalMap)
+        throw ArgumentError("meso renderer: a solid (non-height-field) mesostructure is shaded by its own normals; a normal map needs a height field");
     if (!(o.depth > 0) || !std::isfinite(o.depth)) throw ArgumentError("meso renderer: the slab depth must be finite and > 0");
     // The maps the technique reads (buildMesoMaps leaves out what its options do not ask for).
-    const bool ddm = t.method == MesoMethod::Ddm || o.shadows, quadrics = (t.method == MesoMethod::Ddm && t.quadrics) || o.shadows;
+    const bool ddm = t.method == MesoMethod::Ddm || o.shadows,
+               quadrics = !maps.isSolid() && ((t.method == MesoMethod::Ddm && t.quadrics) || o.shadows);
     if ((ddm && maps.ddm.grid.empty()) || (t.method == MesoMethod::DistanceMap && maps.distance.d.empty()) ||
         (quadrics && maps.quadrics.q.empty()))
         throw ArgumentError(std::string("meso renderer: the maps lack the ") +
@@ -195,6 +200,7 @@ glm::dmat4 mesoViewProjection(const MesoRenderOptions& o) {
 struct MesoPartGpu {
     MesoLook look;
     MesoBuffers maps;
+    bool solid = false; // non-height-field detail (MesoMaps::isSolid)
     std::unique_ptr<Buffer> params;
     std::unique_ptr<Buffer> images; // the albedo's and the normal map's MesoAlbedo::words, or a placeholder
     std::unique_ptr<DescriptorSet> descriptors;
@@ -234,7 +240,8 @@ struct MesoRenderer::Impl {
     }
 
     void addPart(const MesoMaps& m, const MesoLook& look, std::uint32_t firstVertex, std::uint32_t vertices) {
-        MesoPartGpu& g = parts.emplace_back(MesoPartGpu{look, uploadMesoMaps(ctx, m), nullptr, nullptr, nullptr, nullptr, firstVertex, vertices});
+        MesoPartGpu& g =
+            parts.emplace_back(MesoPartGpu{look, uploadMesoMaps(ctx, m), m.isSolid(), nullptr, nullptr, nullptr, nullptr, firstVertex, vertices});
         const MesoGpuSize s = mesoGpuSize(m);
         const glm::dvec3 vpu = mesoVoxelsPerUnit(m, look, options);
         GpuMesoParams p{};
@@ -264,12 +271,14 @@ struct MesoRenderer::Impl {
         if (options.base) requireFormat(ctx, depth, VK_FORMAT_FEATURE_DEPTH_STENCIL_ATTACHMENT_BIT, "the mesostructure renderer's depth");
         targets = std::make_unique<OffscreenTargets>(ctx, options.width, options.height, kFormats, depth);
         for (MesoPartGpu& g : parts) {
-            const auto mb = g.maps.all(); // maps 0..4, params 5, base mesh 6, images 7
-            std::array<VkBuffer, 8> storage{};
+            const auto mb = g.maps.all(); // maps 0..4, params 5, base mesh 6, images 7, a solid's lists 8 and 9
+            std::array<VkBuffer, 10> storage{};
             for (std::size_t i = 0; i < 5; ++i) storage[i] = mb[i]->handle();
             storage[5] = g.params->handle();
             storage[6] = frame->handle();
             storage[7] = g.images->handle();
+            storage[8] = mb[5]->handle();
+            storage[9] = mb[6]->handle();
             g.descriptors = std::make_unique<DescriptorSet>(ctx, storage, std::span<const SampledImage>{},
                                                             VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT);
             const MesoTechnique& t = g.look.technique;
@@ -288,7 +297,8 @@ struct MesoRenderer::Impl {
                                static_cast<std::uint32_t>(g.look.shadowIterations),
                                options.base ? 1u : 0u,
                                g.look.albedo ? 1u : 0u,
-                               g.look.normalMap ? 1u : 0u};
+                               g.look.normalMap ? 1u : 0u,
+                               g.solid ? 1u : 0u};
             d.stages = {{VK_SHADER_STAGE_VERTEX_BIT, options.base ? std::span<const std::uint32_t>(meso_base_vert_spv)
                                                                   : std::span<const std::uint32_t>(meso_vert_spv), false},
                         {VK_SHADER_STAGE_FRAGMENT_BIT, meso_frag_spv, true}};

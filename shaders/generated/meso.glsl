@@ -166,6 +166,57 @@ DM_TFUNC void dmVoxelQuadric(rvec4 qa, rvec4 qb, rvec4 qc, int k, DM_OUT(rvec4) 
     }
 }
 
+// --- Triangles (non-height-field detail, meso/solid.h) ---------------------------------------
+// Moller & Trumbore (1997): the crossing of o + t d with the triangle a, a + e1, a + e2 (either
+// face) for t in [t0, tBest]. On a hit tBest becomes its t and uv its barycentric (u, v) (the
+// point a + u e1 + v e2) and it returns true. A ray (nearly) parallel to the plane, |det| <=
+// 1e-20 (det = e1 . (d x e2), |d| = 1: twice the area of the triangle seen along d), misses:
+// float and double draw the same line, far below any triangle a voxelised mesh holds.
+DM_TFUNC bool dmRayTriangle(rvec3 o, rvec3 d, rvec3 a, rvec3 e1, rvec3 e2, real t0, DM_INOUT(real) tBest, DM_INOUT(rvec2) uv) {
+    rvec3 p = dmCross3(d, e2);
+    real det = dmDot3(e1, p);
+    if (!(abs(det) > real(1e-20))) {
+        return false;
+    }
+    rvec3 w = o - a;
+    real u = dmDot3(w, p) / det;
+    if (u < real(0) || u > real(1)) {
+        return false;
+    }
+    rvec3 q = dmCross3(w, e1);
+    real v = dmDot3(d, q) / det;
+    if (v < real(0) || u + v > real(1)) {
+        return false;
+    }
+    real t = dmDot3(e2, q) / det;
+    if (t < t0 || t > tBest) {
+        return false;
+    }
+    tBest = t;
+    uv = rvec2(u, v);
+    return true;
+}
+
+// The unit vector whose octahedral encoding is e in [-1, 1]^2 (Cigolle et al. 2014, "A survey
+// of efficient representations for independent unit vectors"; packSolidEntries encodes).
+DM_TFUNC rvec3 dmOctDecode(rvec2 e) {
+    rvec3 n = rvec3(e.x, e.y, (real(1) - abs(e.x)) - abs(e.y));
+    if (n.z < real(0)) {
+        n.x = (real(1) - abs(e.y)) * (e.x >= real(0) ? real(1) : real(-1));
+        n.y = (real(1) - abs(e.x)) * (e.y >= real(0) ? real(1) : real(-1));
+    }
+    return n * (real(1) / sqrt(dmDot3(n, n)));
+}
+
+// The shading normal at barycentric uv of a triangle whose corners' unit normals are
+// octahedral n0, n1, n2 (Phong's interpolation), unit length; the first corner's where they cancel.
+DM_TFUNC rvec3 dmSolidCornerNormal(rvec2 n0, rvec2 n1, rvec2 n2, rvec2 uv) {
+    rvec3 a = dmOctDecode(n0);
+    rvec3 n = (a * ((real(1) - uv.x) - uv.y) + dmOctDecode(n1) * uv.x) + dmOctDecode(n2) * uv.y;
+    real l = dmDot3(n, n);
+    return l > real(0) ? n * (real(1) / sqrt(l)) : a;
+}
+
 // --- Voxel traversal (Algorithm 3.3, as an exact DDA) ---------------------------------------
 // The voxel containing p; a coordinate on a voxel wall belongs to the voxel the ray d enters.
 DM_TFUNC ivec3 dmVoxelAt(rvec3 p, rvec3 d) {
@@ -571,6 +622,60 @@ DM_TFUNC void dmVoxelQuadric(rvec4 qa, rvec4 qb, rvec4 qc, int k, DM_OUT(rvec4) 
 }
 #line 183 "include/dispmap/kernels/meso.h"
 
+// --- Triangles (non-height-field detail, meso/solid.h) ---------------------------------------
+// Moller & Trumbore (1997): the crossing of o + t d with the triangle a, a + e1, a + e2 (either
+// face) for t in [t0, tBest]. On a hit tBest becomes its t and uv its barycentric (u, v) (the
+// point a + u e1 + v e2) and it returns true. A ray (nearly) parallel to the plane, |det| <=
+// 1e-20 (det = e1 . (d x e2), |d| = 1: twice the area of the triangle seen along d), misses:
+// float and double draw the same line, far below any triangle a voxelised mesh holds.
+DM_TFUNC bool dmRayTriangle(rvec3 o, rvec3 d, rvec3 a, rvec3 e1, rvec3 e2, real t0, DM_INOUT(real) tBest, DM_INOUT(rvec2) uv) {
+    rvec3 p = dmCross3(d, e2);
+    real det = dmDot3(e1, p);
+    if (!(abs(det) > real(1e-20))) {
+        return false;
+    }
+    rvec3 w = o - a;
+    real u = dmDot3(w, p) / det;
+    if (u < real(0) || u > real(1)) {
+        return false;
+    }
+    rvec3 q = dmCross3(w, e1);
+    real v = dmDot3(d, q) / det;
+    if (v < real(0) || u + v > real(1)) {
+        return false;
+    }
+    real t = dmDot3(e2, q) / det;
+    if (t < t0 || t > tBest) {
+        return false;
+    }
+    tBest = t;
+    uv = rvec2(u, v);
+    return true;
+}
+#line 214 "include/dispmap/kernels/meso.h"
+
+// The unit vector whose octahedral encoding is e in [-1, 1]^2 (Cigolle et al. 2014, "A survey
+// of efficient representations for independent unit vectors"; packSolidEntries encodes).
+DM_TFUNC rvec3 dmOctDecode(rvec2 e) {
+    rvec3 n = rvec3(e.x, e.y, (real(1) - abs(e.x)) - abs(e.y));
+    if (n.z < real(0)) {
+        n.x = (real(1) - abs(e.y)) * (e.x >= real(0) ? real(1) : real(-1));
+        n.y = (real(1) - abs(e.x)) * (e.y >= real(0) ? real(1) : real(-1));
+    }
+    return n * (real(1) / sqrt(dmDot3(n, n)));
+}
+#line 225 "include/dispmap/kernels/meso.h"
+
+// The shading normal at barycentric uv of a triangle whose corners' unit normals are
+// octahedral n0, n1, n2 (Phong's interpolation), unit length; the first corner's where they cancel.
+DM_TFUNC rvec3 dmSolidCornerNormal(rvec2 n0, rvec2 n1, rvec2 n2, rvec2 uv) {
+    rvec3 a = dmOctDecode(n0);
+    rvec3 n = (a * ((real(1) - uv.x) - uv.y) + dmOctDecode(n1) * uv.x) + dmOctDecode(n2) * uv.y;
+    real l = dmDot3(n, n);
+    return l > real(0) ? n * (real(1) / sqrt(l)) : a;
+}
+#line 234 "include/dispmap/kernels/meso.h"
+
 // --- Voxel traversal (Algorithm 3.3, as an exact DDA) ---------------------------------------
 // The voxel containing p; a coordinate on a voxel wall belongs to the voxel the ray d enters.
 DM_TFUNC ivec3 dmVoxelAt(rvec3 p, rvec3 d) {
@@ -587,7 +692,7 @@ DM_TFUNC ivec3 dmVoxelAt(rvec3 p, rvec3 d) {
     }
     return v;
 }
-#line 200 "include/dispmap/kernels/meso.h"
+#line 251 "include/dispmap/kernels/meso.h"
 
 // Parameter where o + t d leaves voxel v, and the axis (0, 1, 2) of the wall it crosses.
 DM_TFUNC real dmVoxelExit(rvec3 o, rvec3 d, ivec3 v, DM_OUT(int) axis) {
@@ -607,7 +712,7 @@ DM_TFUNC real dmVoxelExit(rvec3 o, rvec3 d, ivec3 v, DM_OUT(int) axis) {
     }
     return t;
 }
-#line 219 "include/dispmap/kernels/meso.h"
+#line 270 "include/dispmap/kernels/meso.h"
 
 // The neighbour of v across the wall `axis` in the direction of d.
 DM_TFUNC ivec3 dmVoxelStep(ivec3 v, rvec3 d, int axis) {
@@ -621,13 +726,13 @@ DM_TFUNC ivec3 dmVoxelStep(ivec3 v, rvec3 d, int axis) {
     }
     return w;
 }
-#line 242 "include/dispmap/kernels/meso.h"
+#line 293 "include/dispmap/kernels/meso.h"
 
 // Parameter where o + t d reaches the plane z = zPlane (d.z != 0).
 DM_TFUNC real dmPlaneHit(rvec3 o, rvec3 d, real zPlane) {
     return (zPlane - o.z) / d.z;
 }
-#line 247 "include/dispmap/kernels/meso.h"
+#line 298 "include/dispmap/kernels/meso.h"
 
 // --- Direction cones (Mehra & Kumar §3.1) ---------------------------------------------------
 // Cone of a voxel-space direction d among m x n cones per hemisphere: azimuth theta (from +x
@@ -657,7 +762,7 @@ DM_TFUNC int dmConeIndex(rvec3 d, int m, int n) {
     int hemisphere = d.z > real(0) ? 1 : 0;
     return (hemisphere * n + band) * m + sector;
 }
-#line 276 "include/dispmap/kernels/meso.h"
+#line 327 "include/dispmap/kernels/meso.h"
 
 // --- Donnelly's distance map ----------------------------------------------------------------
 // Tangent-space direction (x along the texture's u, y along v, z along the normal, any
@@ -668,7 +773,7 @@ DM_TFUNC rvec3 dmTangentToVoxel(rvec3 t, rvec3 voxelsPerUnit) {
     rvec3 v = rvec3(t.x * voxelsPerUnit.x, t.y * voxelsPerUnit.y, t.z * voxelsPerUnit.z);
     return v * (real(1) / sqrt(dmDot3(v, v)));
 }
-#line 286 "include/dispmap/kernels/meso.h"
+#line 337 "include/dispmap/kernels/meso.h"
 
 // Samples of Donnelly's map sit at (i, j, k + 1/2): texel grid points, layer centres. The
 // sample cell of p (its lowest sample (i, j, k), unwrapped) and the trilinear fractions f;
@@ -681,7 +786,7 @@ DM_TFUNC ivec3 dmDistanceSampleCell(rvec3 p, int L, DM_OUT(rvec3) f) {
     f = rvec3(p.x - fx, p.y - fy, zc - real(k));
     return ivec3(int(fx), int(fy), k);
 }
-#line 298 "include/dispmap/kernels/meso.h"
+#line 349 "include/dispmap/kernels/meso.h"
 
 // Trilinear interpolation: lo and hi the samples of layers k and k + 1 in dmBilerp's order
 // ((i, j), (i+1, j), (i+1, j+1), (i, j+1)).
@@ -689,7 +794,7 @@ DM_TFUNC real dmTrilerp(rvec4 lo, rvec4 hi, rvec3 f) {
     rvec2 xy = rvec2(f.x, f.y);
     return dmBilerp(lo, xy) * (real(1) - f.z) + dmBilerp(hi, xy) * f.z;
 }
-#line 305 "include/dispmap/kernels/meso.h"
+#line 356 "include/dispmap/kernels/meso.h"
 
 // One sphere-tracing step (Hart 1996; Donnelly §8.3) with the interpolated distance `dist`
 // at o + t d: returns 1 when converged (dist <= eps; a fixed iteration count passes eps < 0),
@@ -710,7 +815,7 @@ DM_TFUNC int dmSphereTraceStep(DM_INOUT(real) t, real dist, real eps, rvec3 o, r
     }
     return 0;
 }
-#line 325 "include/dispmap/kernels/meso.h"
+#line 376 "include/dispmap/kernels/meso.h"
 
 // --- Conservative (directional) distance maps -----------------------------------------------
 // One step of Algorithm 3.1 for a ray at o + t d in voxel v (inside the slab). `dist` is v's
@@ -746,7 +851,7 @@ DM_TFUNC int dmDdmStep(DM_INOUT(real) t, DM_INOUT(ivec3) v, real dist, rvec4 qa,
     v = w;
     return 0;
 }
-#line 360 "include/dispmap/kernels/meso.h"
+#line 411 "include/dispmap/kernels/meso.h"
 
 // --- Relief mapping and parallax occlusion mapping (height-field baselines) ----------------
 // Texel cell of xy (unwrapped) and the bilinear fraction inside it.
@@ -755,13 +860,13 @@ DM_TFUNC ivec2 dmHeightCell(rvec2 xy, DM_OUT(rvec2) f) {
     f = xy - b;
     return ivec2(int(b.x), int(b.y));
 }
-#line 368 "include/dispmap/kernels/meso.h"
+#line 419 "include/dispmap/kernels/meso.h"
 
 // Height of p above the surface, given the heights h of its cell (dmBilerp's order) and f.
 DM_TFUNC real dmHeightAbove(rvec3 p, rvec4 h, rvec2 f) {
     return p.z - dmBilerp(h, f);
 }
-#line 373 "include/dispmap/kernels/meso.h"
+#line 424 "include/dispmap/kernels/meso.h"
 
 // Linear search of relief mapping and POM: the bracket (t_prev, t) advances by dt while the
 // sample at t is above the surface; returns true when `above` (at bracket.y) is <= 0.
@@ -772,7 +877,7 @@ DM_TFUNC bool dmLinearSearchStep(DM_INOUT(rvec2) bracket, real dt, real above) {
     bracket = rvec2(bracket.y, bracket.y + dt);
     return false;
 }
-#line 383 "include/dispmap/kernels/meso.h"
+#line 434 "include/dispmap/kernels/meso.h"
 
 // Relief mapping's binary search: given `above` at the bracket's midpoint, keep the half
 // that still contains the crossing (the first end above, the second at or below).
@@ -780,7 +885,7 @@ DM_TFUNC rvec2 dmBisectStep(rvec2 bracket, real above) {
     real mid = real(0.5) * (bracket.x + bracket.y);
     return above <= real(0) ? rvec2(bracket.x, mid) : rvec2(mid, bracket.y);
 }
-#line 390 "include/dispmap/kernels/meso.h"
+#line 441 "include/dispmap/kernels/meso.h"
 
 // POM's final step (Tatarchuk 2006): where the segment between the last sample above
 // (height aboveA > 0 at bracket.x) and the first below (aboveB <= 0 at bracket.y) crosses.

@@ -10,7 +10,7 @@
 #define rvec3 vec3
 #define rvec4 vec4
 #define rmat3 mat3
-#line 33 "include/dispmap/kernels/meso_march.h"
+#line 38 "include/dispmap/kernels/meso_march.h"
 // Donnelly's sphere tracing: `iterations` steps of the trilinearly read distance, or fewer
 // when it falls to eps or below (dmSphereTraceStep). The hit is where the last step ends; a
 // ray that rose through the top is a miss.
@@ -69,6 +69,60 @@ DM_TFUNC bool dmMesoMarchDdm(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int cone
             hit = true;
             break;
         }
+    }
+    tHit = t;
+    return hit;
+}
+
+// Algorithm 3.1 over a solid (non-height-field detail, meso/solid.h): the march of
+// dmMesoMarchDdm where a voxel whose distance is 0 tests the ray exactly against the triangles
+// listed for it (each a copy placed next to the voxel: no periodic shift is searched) and
+// moves on to the next voxel when none is crossed inside it. The floor z < 0 is solid. Writes
+// the entry whose triangle was hit (-1: the floor, or running out of iterations) and the
+// barycentric uv there; one iteration per voxel visited, whatever its triangle count.
+DM_TFUNC bool dmMesoMarchDdmSolid(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int coneN, int maxIterations, int exitRule, real tol,
+                                  DM_OUT(real) tHit, DM_OUT(int) count, DM_OUT(int) entry, DM_OUT(rvec2) uv) {
+    int cone = dmConeIndex(d, coneM, coneN);
+    bool hit = true; // until the ray leaves, as dmMesoMarchDdm
+    count = 0;
+    entry = -1;
+    uv = rvec2(real(0));
+    real t = real(0);
+    ivec3 v = dmVoxelAt(o, d);
+    rvec4 none = rvec4(real(0));
+    rvec4 miss = rvec4(real(0), real(-1), real(0), real(0)); // Q = -1: a 0 voxel without a crossing is left
+    for (int i = 0; i < maxIterations; ++i) {
+        int slab = dmSlabStatus(v, m.layers);
+        if (slab != 0) {
+            hit = slab == 1;
+            if (hit && d.z < real(0)) {
+                t = max(t, dmPlaneHit(o, d, real(0)));
+            }
+            break;
+        }
+        count = count + 1;
+        real dist = real(dmMesoFetchDdm(m, cone, v.x, v.y, v.z));
+        if (dist <= real(0)) {
+            int axis;
+            real tBest = max(dmVoxelExit(o, d, v, axis), t);
+            ivec2 range = dmMesoFetchSolidRange(m, v.x, v.y, v.z);
+            rvec3 ol = o - rvec3(real(v.x), real(v.y), real(v.z));
+            int found = -1;
+            for (int e = range.x; e < range.y; ++e) {
+                rvec3 a = rvec3(dmMesoFetchSolidTriangle(m, e, 0));
+                rvec3 e1 = rvec3(dmMesoFetchSolidTriangle(m, e, 1));
+                rvec3 e2 = rvec3(dmMesoFetchSolidTriangle(m, e, 2));
+                if (dmRayTriangle(ol, d, a, e1, e2, t, tBest, uv)) {
+                    found = e;
+                }
+            }
+            if (found >= 0) {
+                entry = found;
+                t = tBest;
+                break;
+            }
+        }
+        dmDdmStep(t, v, dist, none, none, miss, rvec3(real(0)), o, d, exitRule, tol);
     }
     tHit = t;
     return hit;

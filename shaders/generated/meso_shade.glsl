@@ -79,6 +79,24 @@ DM_TFUNC rvec3 dmFrameNormal(rvec4 h, rvec2 f, rvec3 pS, rvec3 pT, rvec3 n, rvec
     return m * (real(1) / sqrt(dmDot3(m, m)));
 }
 
+// The unit world normal of a voxel-space normal nv (a solid's, meso/solid.h) on the frame
+// (pS, pT, n): normals take the inverse transpose of the map from voxel to world vectors,
+// whose columns are f1 = pS / vpu.x, f2 = pT / vpu.y, f3 = n / vpu.z, i.e. the sum of nv's
+// components times the cross products f2 x f3, f3 x f1, f1 x f2, turned by the sign of the
+// frame's determinant (a mirrored chart). On the plane pass the axes: (nv.x vpu.x, nv.y vpu.y,
+// nv.z vpu.z), unit.
+DM_TFUNC rvec3 dmFrameVoxelNormal(rvec3 nv, rvec3 pS, rvec3 pT, rvec3 n, rvec3 voxelsPerUnit) {
+    rvec3 f1 = pS * (real(1) / voxelsPerUnit.x);
+    rvec3 f2 = pT * (real(1) / voxelsPerUnit.y);
+    rvec3 f3 = n * (real(1) / voxelsPerUnit.z);
+    rvec3 c23 = dmCross3(f2, f3);
+    rvec3 m = (c23 * nv.x + dmCross3(f3, f1) * nv.y) + dmCross3(f1, f2) * nv.z;
+    if (dmDot3(f1, c23) < real(0)) {
+        m = -m;
+    }
+    return m * (real(1) / sqrt(dmDot3(m, m)));
+}
+
 // The tangent-space normal that a normal map's texel c (RGBA in [0, 1]) holds: x = 2 r - 1
 // along +s, y = 2 g - 1 along greenT t (greenT -1: green points to the image's top, t = 0, as
 // OpenGL and glTF write normal maps; +1: to its bottom, as DirectX), z = 2 b - 1 along the

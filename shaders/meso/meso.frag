@@ -6,7 +6,9 @@
 // for, a shadow ray through the DDM's shadow cones; the colour is the albedo image's at the hit
 // (trilinear over its mips, the level from the pixel's footprint) or a checker; the shading
 // normal is the height field's or, when the scene has one, the normal map's at the hit
-// (trilinear in the same way, dmNormalMapTangent, on the pixel's frame). On a base mesh the
+// (trilinear in the same way, dmNormalMapTangent, on the pixel's frame); a solid (non-height-
+// field detail) is marched through its DDM and triangles, shaded with its corner normals
+// (dmMesoSolidNormal, dmFrameVoxelNormal) and shadowed by the same march. On a base mesh the
 // depth is the hit's (dmFramePoint), so the detail occludes and is occluded where it is, and a ray that misses
 // (it leaves through the top, e.g. from a back face) writes the far plane: what lies behind
 // it shows through. Every formula is a kernel (kernels/meso.h, kernels/meso_shade.h);
@@ -15,6 +17,7 @@
 #define DM_MESO_SET 0
 #define DM_MESO_BINDING 0
 #define DM_MESO_IMAGE_BINDING 7
+#define DM_MESO_SOLID_BINDING 8
 #include "march.glsl"
 #include "meso_shade.glsl"
 #include "common.glsl"
@@ -31,6 +34,7 @@ layout(constant_id = 8) const int kShadowIterations = 64;
 layout(constant_id = 9) const int kBase = 0;            // 0 the plane z = 0, 1 a base mesh (base.vert)
 layout(constant_id = 10) const bool kAlbedo = false;    // the albedo image (binding 7), else the checker
 layout(constant_id = 11) const bool kNormalMap = false; // the normal map (binding 7 from params.dims2.y on) shades, else the height field's normal
+layout(constant_id = 12) const bool kSolid = false;     // a non-height-field solid (bindings 8, 9): its DDM march (kMethod 1) and corner normals
 
 layout(location = 0) in vec3 worldPos;
 layout(location = 1) in vec2 tex;
@@ -72,6 +76,8 @@ void main() {
     vec2 uvDx = dFdx(uvEntry);
     vec2 uvDy = dFdy(uvEntry);
     DmMesoHit h;
+    int entry = -1; // the solid's triangle hit
+    vec2 bary = vec2(0.0);
     if (kBase != 0 && !(d.z < 0.0)) {
         // Seen from below the base (a back face): the ray leaves through the top at once.
         h.hit = false;
@@ -79,6 +85,11 @@ void main() {
         h.iterations = 0;
     } else if (kMethod == 0) {
         h = dmMarchDistanceMap(s, o, d, kIterations, kEps);
+    } else if (kMethod == 1 && kSolid) {
+        DmMesoSolidHit sh = dmMarchDdmSolid(s, o, d, kIterations, kExitRule);
+        h = sh.h;
+        entry = sh.entry;
+        bary = sh.uv;
     } else if (kMethod == 1) {
         h = dmMarchDdm(s, o, d, kIterations, kQuadrics, kExitRule);
     } else {
@@ -94,15 +105,26 @@ void main() {
         return;
     }
     vec3 p = o + d * h.t;
-    vec2 f;
-    ivec2 c = dmHeightCell(vec2(p.x, p.y), f);
-    vec4 cell = dmMesoCell(s, c.x, c.y);
+    vec3 axisS = kBase == 0 ? vec3(1.0, 0.0, 0.0) : framePS;
+    vec3 axisT = kBase == 0 ? vec3(0.0, 1.0, 0.0) : framePT;
+    vec3 axisN = kBase == 0 ? vec3(0.0, 0.0, 1.0) : n0;
     vec3 n;
+    vec3 so; // the shadow ray's origin
+    if (kSolid) {
+        // The triangle's corner normals at the hit (the floor's: up), lifted along it for the shadow ray.
+        vec3 nv = entry >= 0 ? dmMesoSolidNormal(entry, bary) : vec3(0.0, 0.0, 1.0);
+        n = dmFrameVoxelNormal(nv, axisS, axisT, axisN, vpu);
+        so = p + nv * params.tol.y;
+    } else {
+        vec2 f;
+        ivec2 c = dmHeightCell(vec2(p.x, p.y), f);
+        vec4 cell = dmMesoCell(s, c.x, c.y);
+        n = kBase == 0 ? dmMesoWorldNormal(cell, f, vpu) : dmFrameNormal(cell, f, framePS, framePT, n0, vpu);
+        so = dmMesoShadowOrigin(p, cell, f, params.tol.y);
+    }
     if (kBase == 0) {
-        n = dmMesoWorldNormal(cell, f, vpu);
         gl_FragDepth = gl_FragCoord.z;
     } else {
-        n = dmFrameNormal(cell, f, framePS, framePT, n0, vpu);
         vec4 clip = params.viewProj * vec4(dmFramePoint(worldPos, p, o, framePS, framePT, n0, vpu), 1.0);
         gl_FragDepth = clamp(clip.z / clip.w, 0.0, 1.0);
     }
@@ -118,8 +140,12 @@ void main() {
         vec3 sd = kBase == 0 ? dmTangentToVoxel(params.light.xyz, vpu)
                              : dmTangentToVoxel(dmFrameCoordinates(params.light.xyz, framePS, framePT, n0), vpu);
         if (sd.z > 0.0) {
-            vec3 so = dmMesoShadowOrigin(p, cell, f, params.tol.y);
-            DmMesoHit sh = dmMarchDdm(s, so, sd, kShadowIterations, true, 1);
+            DmMesoHit sh;
+            if (kSolid) {
+                sh = dmMarchDdmSolid(s, so, sd, kShadowIterations, 1).h;
+            } else {
+                sh = dmMarchDdm(s, so, sd, kShadowIterations, true, 1);
+            }
             lit = sh.hit ? 0.0 : 1.0;
             shadowIterations = uint(sh.iterations);
         } else {

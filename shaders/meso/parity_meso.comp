@@ -1,11 +1,12 @@
 #version 450
 // CPU/GPU parity of the mesostructure marchers (shaders/meso/march.glsl against
 // include/dispmap/meso/march.h): one ray per invocation through the method the push
-// constants name; writes (hit, t bits, iterations). Runner: backend_vulkan/parity/meso_parity.cpp.
+// constants name; writes (hit, t bits, iterations, the solid's entry hit + 1). Runner: backend_vulkan/parity/meso_parity.cpp.
 #extension GL_GOOGLE_include_directive : require
 #define DM_MESO_SET 0
 #define DM_MESO_BINDING 0
-#define DM_MESO_IMAGE_BINDING 7  // declared by march.glsl, not read here (5 and 6 are the rays and results)
+#define DM_MESO_SOLID_BINDING 7  // a solid's entry starts and entries: 7 and 8
+#define DM_MESO_IMAGE_BINDING 9  // declared by march.glsl, not read here (5 and 6 are the rays and results)
 #include "march.glsl"
 
 layout(local_size_x = 64) in;
@@ -20,7 +21,7 @@ layout(push_constant) uniform Push {
     int coneM;
     int coneN;
     float tol;
-    int method;    // 0 distance map, 1 DDM, 2 relief, 3 POM (MesoMethod's order)
+    int method;    // 0 distance map, 1 DDM, 2 relief, 3 POM (MesoMethod's order), 4 the solid's DDM march
     int iterations;
     float eps;
     int quadrics;
@@ -57,12 +58,17 @@ void main() {
     vec3 o = rays[i].o.xyz;
     vec3 d = rays[i].d.xyz;
     DmMesoHit h;
-    if (pc.method == 0) {
+    int entry = -1;
+    if (pc.method == 4) {
+        DmMesoSolidHit sh = dmMarchDdmSolid(s, o, d, pc.iterations, pc.exitRule);
+        h = sh.h;
+        entry = sh.entry;
+    } else if (pc.method == 0) {
         h = dmMarchDistanceMap(s, o, d, pc.iterations, pc.eps);
     } else if (pc.method == 1) {
         h = dmMarchDdm(s, o, d, pc.iterations, pc.quadrics != 0, pc.exitRule);
     } else {
         h = dmMarchHeightSearch(s, o, d, pc.linear, pc.method == 3 ? -1 : pc.binary);
     }
-    results[i] = uvec4(h.hit ? 1u : 0u, floatBitsToUint(h.t), uint(h.iterations), 0u);
+    results[i] = uvec4(h.hit ? 1u : 0u, floatBitsToUint(h.t), uint(h.iterations), uint(entry + 1));
 }

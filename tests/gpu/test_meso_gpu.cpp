@@ -18,7 +18,7 @@ TEST_CASE("every mesostructure marcher agrees bit for bit between C++ and the co
     const bool strict = dispmap::parity::strictFor(ctx, opt);
     INFO("device " << ctx.deviceName() << (strict ? " (strict: no FMA contraction)" : ""));
     const auto results = dispmap::parity::runMeso(ctx, opt);
-    REQUIRE(results.size() == 12);
+    REQUIRE(results.size() == 16);
     for (const auto& r : results) {
         INFO(r.kernel << ": " << r.bitExact << " of " << r.inputs << " bit-exact, max " << r.maxUlp << " ULP, worst " << r.worstInput);
         CHECK(r.inputs == 2048);

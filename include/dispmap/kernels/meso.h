@@ -181,6 +181,57 @@ DM_TFUNC void dmVoxelQuadric(rvec4 qa, rvec4 qb, rvec4 qc, int k, DM_OUT(rvec4) 
     }
 }
 
+// --- Triangles (non-height-field detail, meso/solid.h) ---------------------------------------
+// Moller & Trumbore (1997): the crossing of o + t d with the triangle a, a + e1, a + e2 (either
+// face) for t in [t0, tBest]. On a hit tBest becomes its t and uv its barycentric (u, v) (the
+// point a + u e1 + v e2) and it returns true. A ray (nearly) parallel to the plane, |det| <=
+// 1e-20 (det = e1 . (d x e2), |d| = 1: twice the area of the triangle seen along d), misses:
+// float and double draw the same line, far below any triangle a voxelised mesh holds.
+DM_TFUNC bool dmRayTriangle(rvec3 o, rvec3 d, rvec3 a, rvec3 e1, rvec3 e2, real t0, DM_INOUT(real) tBest, DM_INOUT(rvec2) uv) {
+    rvec3 p = dmCross3(d, e2);
+    real det = dmDot3(e1, p);
+    if (!(abs(det) > real(1e-20))) {
+        return false;
+    }
+    rvec3 w = o - a;
+    real u = dmDot3(w, p) / det;
+    if (u < real(0) || u > real(1)) {
+        return false;
+    }
+    rvec3 q = dmCross3(w, e1);
+    real v = dmDot3(d, q) / det;
+    if (v < real(0) || u + v > real(1)) {
+        return false;
+    }
+    real t = dmDot3(e2, q) / det;
+    if (t < t0 || t > tBest) {
+        return false;
+    }
+    tBest = t;
+    uv = rvec2(u, v);
+    return true;
+}
+
+// The unit vector whose octahedral encoding is e in [-1, 1]^2 (Cigolle et al. 2014, "A survey
+// of efficient representations for independent unit vectors"; packSolidEntries encodes).
+DM_TFUNC rvec3 dmOctDecode(rvec2 e) {
+    rvec3 n = rvec3(e.x, e.y, (real(1) - abs(e.x)) - abs(e.y));
+    if (n.z < real(0)) {
+        n.x = (real(1) - abs(e.y)) * (e.x >= real(0) ? real(1) : real(-1));
+        n.y = (real(1) - abs(e.x)) * (e.y >= real(0) ? real(1) : real(-1));
+    }
+    return n * (real(1) / sqrt(dmDot3(n, n)));
+}
+
+// The shading normal at barycentric uv of a triangle whose corners' unit normals are
+// octahedral n0, n1, n2 (Phong's interpolation), unit length; the first corner's where they cancel.
+DM_TFUNC rvec3 dmSolidCornerNormal(rvec2 n0, rvec2 n1, rvec2 n2, rvec2 uv) {
+    rvec3 a = dmOctDecode(n0);
+    rvec3 n = (a * ((real(1) - uv.x) - uv.y) + dmOctDecode(n1) * uv.x) + dmOctDecode(n2) * uv.y;
+    real l = dmDot3(n, n);
+    return l > real(0) ? n * (real(1) / sqrt(l)) : a;
+}
+
 // --- Voxel traversal (Algorithm 3.3, as an exact DDA) ---------------------------------------
 // The voxel containing p; a coordinate on a voxel wall belongs to the voxel the ray d enters.
 DM_TFUNC ivec3 dmVoxelAt(rvec3 p, rvec3 d) {

@@ -14,6 +14,11 @@
 //   vec4  dmMesoFetchQuadric(DmMesoMaps m, int i, int j, int part) ColumnQuadrics::q[3 col + part]
 //   uint  dmMesoFetchImage(DmMesoMaps m, int i)                    the images' words: MesoAlbedo::words[i]
 //                                                                  (meso/albedo.h), albedo then normal map
+//   ivec2 dmMesoFetchSolidRange(DmMesoMaps m, int i, int j, int k) a solid's entries in voxel (i, j, k)
+//                                                                  (wrapped): [x, y) (meso/solid.h)
+//   vec4  dmMesoFetchSolidTriangle(DmMesoMaps m, int e, int part)  entry e's triangle: part 0 its first
+//                                                                  corner a relative to the voxel's lower
+//                                                                  corner, 1 and 2 its edges e1, e2 (xyz)
 // In GLSL DmMesoMaps is the includer's struct (march.glsl: #define DmMesoMaps DmMesoSize). In
 // C++ it is DmMesoMapsT<real>, a class template this header only declares, so the fetch calls
 // depend on the template parameter and are found at instantiation, in the includer's
@@ -88,6 +93,60 @@ DM_TFUNC bool dmMesoMarchDdm(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int cone
             hit = true;
             break;
         }
+    }
+    tHit = t;
+    return hit;
+}
+
+// Algorithm 3.1 over a solid (non-height-field detail, meso/solid.h): the march of
+// dmMesoMarchDdm where a voxel whose distance is 0 tests the ray exactly against the triangles
+// listed for it (each a copy placed next to the voxel: no periodic shift is searched) and
+// moves on to the next voxel when none is crossed inside it. The floor z < 0 is solid. Writes
+// the entry whose triangle was hit (-1: the floor, or running out of iterations) and the
+// barycentric uv there; one iteration per voxel visited, whatever its triangle count.
+DM_TFUNC bool dmMesoMarchDdmSolid(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int coneN, int maxIterations, int exitRule, real tol,
+                                  DM_OUT(real) tHit, DM_OUT(int) count, DM_OUT(int) entry, DM_OUT(rvec2) uv) {
+    int cone = dmConeIndex(d, coneM, coneN);
+    bool hit = true; // until the ray leaves, as dmMesoMarchDdm
+    count = 0;
+    entry = -1;
+    uv = rvec2(real(0));
+    real t = real(0);
+    ivec3 v = dmVoxelAt(o, d);
+    rvec4 none = rvec4(real(0));
+    rvec4 miss = rvec4(real(0), real(-1), real(0), real(0)); // Q = -1: a 0 voxel without a crossing is left
+    for (int i = 0; i < maxIterations; ++i) {
+        int slab = dmSlabStatus(v, m.layers);
+        if (slab != 0) {
+            hit = slab == 1;
+            if (hit && d.z < real(0)) {
+                t = max(t, dmPlaneHit(o, d, real(0)));
+            }
+            break;
+        }
+        count = count + 1;
+        real dist = real(dmMesoFetchDdm(m, cone, v.x, v.y, v.z));
+        if (dist <= real(0)) {
+            int axis;
+            real tBest = max(dmVoxelExit(o, d, v, axis), t);
+            ivec2 range = dmMesoFetchSolidRange(m, v.x, v.y, v.z);
+            rvec3 ol = o - rvec3(real(v.x), real(v.y), real(v.z));
+            int found = -1;
+            for (int e = range.x; e < range.y; ++e) {
+                rvec3 a = rvec3(dmMesoFetchSolidTriangle(m, e, 0));
+                rvec3 e1 = rvec3(dmMesoFetchSolidTriangle(m, e, 1));
+                rvec3 e2 = rvec3(dmMesoFetchSolidTriangle(m, e, 2));
+                if (dmRayTriangle(ol, d, a, e1, e2, t, tBest, uv)) {
+                    found = e;
+                }
+            }
+            if (found >= 0) {
+                entry = found;
+                t = tBest;
+                break;
+            }
+        }
+        dmDdmStep(t, v, dist, none, none, miss, rvec3(real(0)), o, d, exitRule, tol);
     }
     tHit = t;
     return hit;

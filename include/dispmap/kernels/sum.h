@@ -12,6 +12,12 @@ DM_TFUNC real dmDot3(rvec3 a, rvec3 b) {
     return (a.x * b.x + a.y * b.y) + a.z * b.z;
 }
 
+// The cross product a x b, each component the difference of two products (GLSL's cross()
+// leaves its evaluation to the implementation).
+DM_TFUNC rvec3 dmCross3(rvec3 a, rvec3 b) {
+    return rvec3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+
 // The matrix-vector product m b (columns of m weighted by b), added left to right.
 DM_TFUNC rvec3 dmMulMV3(rmat3 m, rvec3 b) {
     return (m[0] * b.x + m[1] * b.y) + m[2] * b.z;

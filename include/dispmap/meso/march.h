@@ -18,6 +18,7 @@
 #include "dispmap/meso/distance_map.h"
 #include "dispmap/meso/height_field.h"
 #include "dispmap/meso/quadrics.h"
+#include "dispmap/meso/solid.h"
 #include "dispmap/kernels/meso_march.h"
 #include "dispmap/kernels/meso_shade.h"
 
@@ -57,6 +58,7 @@ template <typename real> struct DmMesoMapsT {
     const CompressedDdm* compressed = nullptr;
     const ColumnQuadrics* quadrics = nullptr;
     const MesoAlbedo* image = nullptr; ///< the one image sampled (its words from 0 on)
+    const MesoSolid* solid = nullptr;  ///< a solid's triangle lists (meso/solid.h)
 };
 template <typename real> float dmMesoFetchDistance(const DmMesoMapsT<real>& m, int i, int j, int k) { return m.distance->at(i, j, k); }
 template <typename real> float dmMesoFetchDdm(const DmMesoMapsT<real>& m, int c, int i, int j, int k) {
@@ -70,6 +72,15 @@ template <typename real> glm::vec4 dmMesoFetchQuadric(const DmMesoMapsT<real>& m
                static_cast<std::size_t>(part)];
 }
 template <typename real> std::uint32_t dmMesoFetchImage(const DmMesoMapsT<real>& m, int i) { return m.image->words[static_cast<std::size_t>(i)]; }
+// The solid's side of kernels/meso_march.h's memory (march.glsl reads the same lists from its
+// solid bindings): voxel (i, j, k)'s entries, i and j wrapped, and an entry's rows in `real`.
+template <typename real> ivec2 dmMesoFetchSolidRange(const DmMesoMapsT<real>& m, int i, int j, int k) {
+    const std::size_t v = m.solid->voxelIndex(i, j, k);
+    return ivec2(static_cast<int>(m.solid->entryStart[v]), static_cast<int>(m.solid->entryStart[v + 1]));
+}
+template <typename real> glm::vec<4, real> dmMesoFetchSolidTriangle(const DmMesoMapsT<real>& m, int e, int part) {
+    return glm::vec<4, real>(m.solid->entryRow(static_cast<std::size_t>(e), part));
+}
 } // namespace dispmap::kern
 
 namespace dispmap {
@@ -212,6 +223,100 @@ template <class real> MesoHit marchHeightSearch(const MesoHeightField& hf, const
     return r;
 }
 
+/// The exact first hit of o + t d, t in [t0, t1], on the triangles listed for voxel v (every
+/// copy of each across the periodic seam next to v: the reference does not trust the copy its
+/// entry names), Moller-Trumbore in double with the mesh's own vertices.
+inline bool raySolidVoxel(const MesoSolid& s, const glm::ivec3& v, const glm::dvec3& o, const glm::dvec3& d, double t0, double t1, double& t) {
+    const glm::dvec3 shift(std::floor(static_cast<double>(v.x) / s.width) * s.width, std::floor(static_cast<double>(v.y) / s.height) * s.height, 0);
+    bool hit = false;
+    t = t1;
+    const std::size_t vi = s.voxelIndex(v.x, v.y, v.z);
+    for (std::uint32_t e = s.entryStart[vi]; e < s.entryStart[vi + 1]; ++e) {
+        const auto& tri = s.triangles[static_cast<std::size_t>(s.entries[e].triangle)];
+        const glm::dvec3 a = s.vertices[static_cast<std::size_t>(tri[0])] + shift;
+        const glm::dvec3 e1 = s.vertices[static_cast<std::size_t>(tri[1])] + shift - a, e2 = s.vertices[static_cast<std::size_t>(tri[2])] + shift - a;
+        // The triangle may lie in the neighbouring tile of the one v is in: try the three shifts
+        // along each axis that put its box near v.
+        for (int sy = -1; sy <= 1; ++sy)
+            for (int sx = -1; sx <= 1; ++sx) {
+                const glm::dvec3 q = a + glm::dvec3(sx * s.width, sy * s.height, 0);
+                const glm::dvec3 p = glm::cross(d, e2);
+                const double det = glm::dot(e1, p);
+                if (std::abs(det) < 1e-300) continue;
+                const glm::dvec3 w = o - q;
+                const double u = glm::dot(w, p) / det;
+                if (u < 0 || u > 1) continue;
+                const glm::dvec3 qq = glm::cross(w, e1);
+                const double vv = glm::dot(d, qq) / det;
+                if (vv < 0 || u + vv > 1) continue;
+                const double tt = glm::dot(e2, qq) / det;
+                if (tt >= t0 && tt <= t) {
+                    t = tt;
+                    hit = true;
+                }
+            }
+    }
+    return hit;
+}
+
+/// A hit of the solid marchers: MesoHit, and the entry whose triangle was hit (-1: the floor or
+/// no triangle) with the barycentric (u, v) on it.
+struct MesoSolidHit : MesoHit {
+    int entry = -1;
+    glm::dvec2 uv{0};
+};
+
+/// Algorithm 3.1 over the solid's (dense or compressed) DDM with exact triangle tests in the
+/// voxels whose distance is 0 (kern::dmMesoMarchDdmSolid, the loop the GPU runs), in `real`;
+/// the floor z = 0 is a hit. ArgumentError for an upward ray on a map without shadow cones.
+template <class real = double, class Map>
+MesoSolidHit marchDdmSolid(const Map& map, const ConeSet& cones, const MesoSolid& s, const glm::dvec3& o, const glm::dvec3& d,
+                           int maxIterations = 1024, int exitRule = 1) {
+    detail::checkRay(o, d, "marchDdmSolid");
+    if (d.z > 0 && !cones.isotropic && !cones.shadow) throw ArgumentError("marchDdmSolid: an upward (shadow) ray needs shadow cones");
+    kern::DmMesoMapsT<real> maps;
+    maps.layers = s.layers;
+    maps.solid = &s;
+    map.bind(maps);
+    MesoSolidHit r;
+    real t = 0;
+    glm::vec<2, real> uv(0);
+    r.hit = kern::dmMesoMarchDdmSolid(maps, detail::v3<real>(o), detail::v3<real>(d), cones.kernelM(), cones.n, maxIterations, exitRule,
+                                      mesoRootTolerance<real>(), t, r.iterations, r.entry, uv);
+    r.t = static_cast<double>(t);
+    r.uv = glm::dvec2(uv);
+    return r;
+}
+
+/// The exact reference for the solid: every voxel along the ray (3D DDA), its triangles, the floor.
+inline MesoHit marchSolidReference(const MesoSolid& s, const glm::dvec3& o, const glm::dvec3& d, int maxVoxels = 1 << 20) {
+    detail::checkRay(o, d, "marchSolidReference");
+    MesoHit r;
+    double t = 0;
+    glm::ivec3 v = kern::dmVoxelAt(o, d);
+    for (int i = 0; i < maxVoxels; ++i) {
+        const int slab = kern::dmSlabStatus(v, s.layers);
+        if (slab != 0) {
+            r.hit = slab == 1;
+            if (r.hit && d.z < 0) t = std::max(t, kern::dmPlaneHit(o, d, 0.0));
+            break;
+        }
+        ++r.iterations;
+        int axis;
+        const double tExit = kern::dmVoxelExit(o, d, v, axis);
+        double th;
+        if (raySolidVoxel(s, v, o, d, t, std::max(tExit, t), th)) {
+            r.hit = true;
+            t = th;
+            break;
+        }
+        t = std::max(t, tExit);
+        v = kern::dmVoxelStep(v, d, axis);
+    }
+    r.t = t;
+    return r;
+}
+
 /// Every map the marchers read, built from one height field (what `dispmap meso` builds and
 /// the GPU renderer uploads). A map a scene does not need is not built: its sizes are set and
 /// its data left empty (the flags below; mesoMapOptionsFor picks them from a technique).
@@ -226,11 +331,13 @@ struct MesoMapOptions {
     int threads = 0; ///< threads of the map builders (core/parallel.h; the same maps for every count)
 };
 struct MesoMaps {
-    MesoHeightField field;
+    MesoHeightField field; ///< a solid's: its sizes, no heights
     DistanceMap distance;
     CompressedDdm ddm;
     ColumnQuadrics quadrics;
     std::size_t denseDdmBytes = 0;
+    MesoSolid solid; ///< non-height-field detail (buildMesoSolidMaps), else empty
+    bool isSolid() const { return solid.width > 0; }
 };
 inline MesoMaps buildMesoMaps(const MesoHeightField& field, const MesoMapOptions& options = {}) {
     MesoMaps m;
@@ -261,6 +368,32 @@ inline MesoMaps buildMesoMaps(const MesoHeightField& field, const MesoMapOptions
         m.quadrics.width = field.width;
         m.quadrics.height = field.height;
     }
+    return m;
+}
+
+/// The maps of a non-height-field solid (meso/solid.h): its DDM (options.cones, compressed
+/// as buildMesoMaps compresses) and, when options.distance, Donnelly's map of it; no quadrics
+/// (the DDM march tests the triangles of its 0 voxels), the field holds only the sizes. The
+/// marchers that read heights (relief mapping, POM) do not apply.
+inline MesoMaps buildMesoSolidMaps(const MesoSolid& solid, const MesoMapOptions& options = {}) {
+    if (solid.width <= 0 || solid.entryStart.empty()) throw ArgumentError("solid mesostructure maps: the solid is empty (mesoSolidFromMesh builds one)");
+    MesoMaps m;
+    m.solid = solid;
+    m.field.width = solid.width;
+    m.field.height = solid.height;
+    m.field.layers = solid.layers;
+    if (options.distance) {
+        m.distance = buildSolidDistanceMap(solid);
+    } else {
+        m.distance.width = solid.width;
+        m.distance.height = solid.height;
+        m.distance.layers = solid.layers;
+    }
+    const DirectionalDistanceMap dense = buildSolidDdm(solid, options.cones, 0, options.threads);
+    m.denseDdmBytes = dense.bytes();
+    m.ddm = compressDdm(dense, options.block, options.compressionSpread);
+    m.quadrics.width = solid.width;
+    m.quadrics.height = solid.height;
     return m;
 }
 
@@ -298,12 +431,13 @@ template <class real> MesoHit marchMeso(const MesoMaps& maps, const MesoTechniqu
         opt.maxIterations = tq.iterations;
         opt.quadrics = tq.quadrics;
         opt.exitRule = tq.exitRule;
+        if (maps.isSolid()) return marchDdmSolid<real>(CompressedDdmView{&maps.ddm}, maps.ddm.cones, maps.solid, o, d, tq.iterations, tq.exitRule);
         return marchDdm<real>(CompressedDdmView{&maps.ddm}, maps.ddm.cones, maps.field.layers, &maps.quadrics, o, d, opt);
     }
     case MesoMethod::Relief:
-        return marchHeightSearch<real>(maps.field, o, d, tq.linear, tq.binary);
     case MesoMethod::Pom:
-        return marchHeightSearch<real>(maps.field, o, d, tq.linear, -1);
+        if (maps.isSolid()) throw ArgumentError("marchMeso: relief mapping and POM march height fields, not a solid");
+        return marchHeightSearch<real>(maps.field, o, d, tq.linear, tq.method == MesoMethod::Pom ? -1 : tq.binary);
     }
     throw ArgumentError("marchMeso: unknown method");
 }

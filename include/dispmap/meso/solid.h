@@ -13,30 +13,62 @@
 //    voxelisation; as in the chapter, no bound);
 //  * buildSolidDdm: the conservative DDM over the solid sub-voxel boxes and the floor (the
 //    same box bound and cone test as the height-field builder), searched in shells of voxels;
-//  * marchDdmSolid: Algorithm 3.1 where a voxel whose distance is 0 tests the ray exactly
-//    against the triangles listed for it (CPU; the GPU renderer draws height fields).
+//  * the triangle lists: each voxel lists the copies of the triangles that may cross it
+//    (MesoSolidEntry: the copy next to that voxel, so a marcher never searches the periodic
+//    shifts), as entryStart / entries, and packSolidEntries gives the GPU's rows with the
+//    corners' normals;
+//  * buildMesoSolidMaps (meso/march.h): the maps the marchers and the renderer read;
+//    marchDdmSolid (meso/march.h, kern::dmMesoMarchDdmSolid on the CPU and the GPU):
+//    Algorithm 3.1 where a voxel whose distance is 0 tests the ray exactly against the
+//    triangles listed for it; marchSolidReference: every voxel's triangles, in double.
 #include <algorithm>
 #include <array>
 #include <bit>
 #include <cstdint>
 
-#include "dispmap/meso/march.h"
+#include <glm/gtc/packing.hpp>
+
+#include "dispmap/core/parallel.h"
+#include "dispmap/meso/ddm.h"
+#include "dispmap/meso/distance_map.h"
 
 namespace dispmap {
+
+/// One triangle of a solid as a voxel lists it: the copy of triangle `triangle` that passes
+/// near the unwrapped voxel `voxel` (the mesh is periodic in x and y; a voxel beyond the tile
+/// lists the copy shifted by whole tiles).
+struct MesoSolidEntry {
+    int triangle = 0;
+    glm::ivec3 voxel{0};
+};
 
 struct MesoSolid {
     int width = 0, height = 0, layers = 0, sub = 2;
     std::vector<std::uint8_t> solid;           ///< [z][y][x] over the sub-voxel grid
     std::vector<std::uint8_t> voxelSolid;      ///< any solid sub-voxel, per voxel [k][j][i]
     std::vector<glm::dvec3> vertices;          ///< voxel space
+    std::vector<glm::dvec3> normals;           ///< per vertex: unit, the area-weighted mean of its triangles' normals
     std::vector<std::array<int, 3>> triangles;
-    std::vector<std::vector<int>> voxelTriangles; ///< triangles that may cross voxel [k][j][i]
+    /// The triangles that may cross voxel v = voxelIndex(i, j, k): entries[entryStart[v]] up to
+    /// entries[entryStart[v + 1]] (one list for every voxel, in voxelIndex order).
+    std::vector<std::uint32_t> entryStart;
+    std::vector<MesoSolidEntry> entries;
 
     std::size_t voxelIndex(int i, int j, int k) const {
         return (static_cast<std::size_t>(k) * static_cast<std::size_t>(height) + static_cast<std::size_t>(detail::wrapIndex(j, height))) *
                    static_cast<std::size_t>(width) +
                static_cast<std::size_t>(detail::wrapIndex(i, width));
     }
+    /// Entry e's triangle in the frame of its voxel's lower corner: part 0 the first corner a,
+    /// 1 and 2 the edges e1 = b - a and e2 = c - a (what the marchers read, w = 0).
+    glm::dvec4 entryRow(std::size_t e, int part) const {
+        const MesoSolidEntry& en = entries[e];
+        const auto& t = triangles[static_cast<std::size_t>(en.triangle)];
+        const glm::dvec3& a = vertices[static_cast<std::size_t>(t[0])];
+        if (part == 0) return glm::dvec4(a - glm::dvec3(en.voxel), 0.0);
+        return glm::dvec4(vertices[static_cast<std::size_t>(t[static_cast<std::size_t>(part)])] - a, 0.0);
+    }
+    std::size_t bytes() const { return entryStart.size() * 4 + entries.size() * 48; } ///< as the GPU holds the lists
     bool subSolid(int x, int y, int z) const {
         if (z < 0) return true;
         if (z >= layers * sub) return false;
@@ -118,7 +150,9 @@ inline MesoSolid mesoSolidFromMesh(const std::vector<glm::dvec3>& vertices, cons
                     if ((z + 0.5) * h >= zs[k]) mark(x, y, z);
         }
     // Surface: sub-voxels (and voxels) the triangle's plane passes near, inside its box.
-    s.voxelTriangles.resize(static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * static_cast<std::size_t>(layers));
+    std::vector<std::vector<MesoSolidEntry>> lists(static_cast<std::size_t>(width) * static_cast<std::size_t>(height) *
+                                                   static_cast<std::size_t>(layers));
+    s.normals.assign(s.vertices.size(), glm::dvec3(0));
     for (std::size_t ti = 0; ti < s.triangles.size(); ++ti) {
         const auto& t = s.triangles[ti];
         const glm::dvec3 &a = s.vertices[static_cast<std::size_t>(t[0])], &b = s.vertices[static_cast<std::size_t>(t[1])],
@@ -126,6 +160,7 @@ inline MesoSolid mesoSolidFromMesh(const std::vector<glm::dvec3>& vertices, cons
         glm::dvec3 n = glm::cross(b - a, c - a);
         const double nl = glm::length(n);
         if (!(nl > 0)) continue; // a degenerate triangle covers nothing
+        for (int i : t) s.normals[static_cast<std::size_t>(i)] += n; // |n| is twice the area
         n /= nl;
         const glm::dvec3 tlo = glm::min(a, glm::min(b, c)), thi = glm::max(a, glm::max(b, c));
         const auto visit = [&](double cell, const auto& fn) {
@@ -138,15 +173,51 @@ inline MesoSolid mesoSolidFromMesh(const std::vector<glm::dvec3>& vertices, cons
         };
         visit(h, mark);
         visit(1.0, [&](int x, int y, int z) {
-            if (z >= 0 && z < layers) s.voxelTriangles[s.voxelIndex(x, y, z)].push_back(static_cast<int>(ti));
+            if (z >= 0 && z < layers) lists[s.voxelIndex(x, y, z)].push_back({static_cast<int>(ti), glm::ivec3(x, y, z)});
         });
     }
-    s.voxelSolid.assign(s.voxelTriangles.size(), 0);
+    for (glm::dvec3& n : s.normals) {
+        const double l = glm::length(n);
+        n = l > 0 ? n / l : glm::dvec3(0, 0, 1); // a vertex of degenerate triangles only: never shaded
+    }
+    s.entryStart.reserve(lists.size() + 1);
+    for (const auto& l : lists) {
+        s.entryStart.push_back(static_cast<std::uint32_t>(s.entries.size()));
+        s.entries.insert(s.entries.end(), l.begin(), l.end());
+    }
+    s.entryStart.push_back(static_cast<std::uint32_t>(s.entries.size()));
+    if (s.entries.size() > std::size_t{1} << 31) throw ArgumentError("mesh mesostructure: more than 2^31 voxel-triangle entries");
+    s.voxelSolid.assign(lists.size(), 0);
     for (int z = 0; z < fz; ++z)
         for (int y = 0; y < fh; ++y)
             for (int x = 0; x < fw; ++x)
                 if (s.subSolid(x, y, z)) s.voxelSolid[s.voxelIndex(x / sub, y / sub, z / sub)] = 1;
     return s;
+}
+
+/// The octahedral encoding of unit vector n in [-1, 1]^2 (the inverse of kern::dmOctDecode).
+inline glm::dvec2 octEncode(const glm::dvec3& n) {
+    const double l1 = std::abs(n.x) + std::abs(n.y) + std::abs(n.z);
+    glm::dvec2 e(n.x / l1, n.y / l1);
+    if (n.z < 0) e = glm::dvec2((1.0 - std::abs(e.y)) * (e.x >= 0 ? 1.0 : -1.0), (1.0 - std::abs(e.x)) * (e.y >= 0 ? 1.0 : -1.0));
+    return e;
+}
+
+/// The solid's entries as the GPU reads them (shaders/meso/march.glsl, binding
+/// DM_MESO_SOLID_BINDING + 1): three rows an entry, xyz the float bits of entryRow(e, part), w
+/// the unit normal of the triangle's corner `part` (glm::packSnorm2x16 of octEncode).
+inline std::vector<glm::uvec4> packSolidEntries(const MesoSolid& s) {
+    std::vector<glm::uvec4> rows;
+    rows.reserve(3 * s.entries.size());
+    for (std::size_t e = 0; e < s.entries.size(); ++e) {
+        const auto& t = s.triangles[static_cast<std::size_t>(s.entries[e].triangle)];
+        for (int part = 0; part < 3; ++part) {
+            const glm::vec3 r(s.entryRow(e, part));
+            const glm::vec2 n(octEncode(s.normals[static_cast<std::size_t>(t[static_cast<std::size_t>(part)])]));
+            rows.emplace_back(glm::floatBitsToUint(r.x), glm::floatBitsToUint(r.y), glm::floatBitsToUint(r.z), glm::packSnorm2x16(n));
+        }
+    }
+    return rows;
 }
 
 /// Appends a closed UV sphere (outward triangles, n rings) of radius r at c: a bead.
@@ -278,109 +349,6 @@ inline DirectionalDistanceMap buildSolidDdm(const MesoSolid& s, const ConeSet& c
         }
     });
     return m;
-}
-
-/// The exact first hit of o + t d, t in [t0, t1], on the triangles listed for voxel v (their
-/// copies across the periodic seam: the voxel's unwrapped position shifts them), Möller-Trumbore.
-template <class real>
-bool raySolidVoxel(const MesoSolid& s, const glm::ivec3& v, const glm::dvec3& o, const glm::dvec3& d, double t0, double t1, double& t) {
-    const glm::dvec3 shift(std::floor(static_cast<double>(v.x) / s.width) * s.width, std::floor(static_cast<double>(v.y) / s.height) * s.height, 0);
-    bool hit = false;
-    t = t1;
-    for (int ti : s.voxelTriangles[s.voxelIndex(v.x, v.y, v.z)]) {
-        const auto& tri = s.triangles[static_cast<std::size_t>(ti)];
-        const glm::dvec3 a = s.vertices[static_cast<std::size_t>(tri[0])] + shift;
-        const glm::dvec3 e1 = s.vertices[static_cast<std::size_t>(tri[1])] + shift - a, e2 = s.vertices[static_cast<std::size_t>(tri[2])] + shift - a;
-        // The triangle may lie in the neighbouring tile of the one v is in: try the three shifts
-        // along each axis that put its box near v.
-        for (int sy = -1; sy <= 1; ++sy)
-            for (int sx = -1; sx <= 1; ++sx) {
-                const glm::dvec3 q = a + glm::dvec3(sx * s.width, sy * s.height, 0);
-                const glm::dvec3 p = glm::cross(d, e2);
-                const double det = glm::dot(e1, p);
-                if (std::abs(det) < 1e-300) continue;
-                const glm::dvec3 w = o - q;
-                const double u = glm::dot(w, p) / det;
-                if (u < 0 || u > 1) continue;
-                const glm::dvec3 qq = glm::cross(w, e1);
-                const double vv = glm::dot(d, qq) / det;
-                if (vv < 0 || u + vv > 1) continue;
-                const double tt = glm::dot(e2, qq) / det;
-                if (tt >= t0 && tt <= t) {
-                    t = tt;
-                    hit = true;
-                }
-            }
-    }
-    return hit;
-}
-
-/// Algorithm 3.1 over the solid's (dense or compressed) DDM with exact triangle tests in the
-/// voxels whose distance is 0; the floor z = 0 is a hit. In double: the triangles are the
-/// reference's own.
-template <class Map>
-MesoHit marchDdmSolid(const Map& map, const ConeSet& cones, const MesoSolid& s, const glm::dvec3& o, const glm::dvec3& d, int maxIterations = 1024,
-                      int exitRule = 1) {
-    detail::checkRay(o, d, "marchDdmSolid");
-    if (d.z > 0 && !cones.isotropic && !cones.shadow) throw ArgumentError("marchDdmSolid: an upward (shadow) ray needs shadow cones");
-    const int cone = kern::dmConeIndex(d, cones.kernelM(), cones.n);
-    MesoHit r;
-    r.hit = true; // running out of iterations is a hit at the last point, as in marchDdm
-    double t = 0;
-    glm::ivec3 v = kern::dmVoxelAt(o, d);
-    const glm::dvec4 none(0), miss(0, -1, 0, 0);
-    for (int i = 0; i < maxIterations; ++i) {
-        const int slab = kern::dmSlabStatus(v, s.layers);
-        if (slab != 0) {
-            r.hit = slab == 1;
-            if (r.hit && d.z < 0) t = std::max(t, kern::dmPlaneHit(o, d, 0.0));
-            break;
-        }
-        ++r.iterations;
-        const double dist = map.distance(cone, v.x, v.y, v.z);
-        if (dist <= 0) {
-            int axis;
-            const double tExit = kern::dmVoxelExit(o, d, v, axis);
-            double th;
-            if (raySolidVoxel<double>(s, v, o, d, t, std::max(tExit, t), th)) {
-                r.hit = true;
-                t = th;
-                break;
-            }
-        }
-        kern::dmDdmStep(t, v, dist, none, none, miss, glm::dvec3(0), o, d, exitRule, mesoRootTolerance<double>());
-    }
-    r.t = t;
-    return r;
-}
-
-/// The exact reference for the solid: every voxel along the ray (3D DDA), its triangles, the floor.
-inline MesoHit marchSolidReference(const MesoSolid& s, const glm::dvec3& o, const glm::dvec3& d, int maxVoxels = 1 << 20) {
-    detail::checkRay(o, d, "marchSolidReference");
-    MesoHit r;
-    double t = 0;
-    glm::ivec3 v = kern::dmVoxelAt(o, d);
-    for (int i = 0; i < maxVoxels; ++i) {
-        const int slab = kern::dmSlabStatus(v, s.layers);
-        if (slab != 0) {
-            r.hit = slab == 1;
-            if (r.hit && d.z < 0) t = std::max(t, kern::dmPlaneHit(o, d, 0.0));
-            break;
-        }
-        ++r.iterations;
-        int axis;
-        const double tExit = kern::dmVoxelExit(o, d, v, axis);
-        double th;
-        if (raySolidVoxel<double>(s, v, o, d, t, std::max(tExit, t), th)) {
-            r.hit = true;
-            t = th;
-            break;
-        }
-        t = std::max(t, tExit);
-        v = kern::dmVoxelStep(v, d, axis);
-    }
-    r.t = t;
-    return r;
 }
 
 } // namespace dispmap

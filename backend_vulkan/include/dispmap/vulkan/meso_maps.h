@@ -17,14 +17,17 @@ struct MesoGpuSize {
 };
 static_assert(sizeof(MesoGpuSize) == 40);
 
-/// The sizes of `maps` for the shader; ArgumentError when the maps disagree in size.
+/// The sizes of `maps` for the shader; ArgumentError when the maps disagree in size (or a
+/// solid's lists do not cover its voxels).
 MesoGpuSize mesoGpuSize(const MesoMaps& maps);
 
-/// heights, distances, DDM grid, DDM atlas, column quadrics (march.glsl's bindings +0..+4).
-/// An empty map (e.g. no atlas block) becomes a 16-byte placeholder.
+/// heights, distances, DDM grid, DDM atlas, column quadrics (march.glsl's bindings +0..+4),
+/// then a solid's entry starts and entries (MesoSolid::entryStart, packSolidEntries: the two
+/// bindings from DM_MESO_SOLID_BINDING on). An empty map (e.g. no atlas block, a height
+/// field's solid lists) becomes a 16-byte placeholder.
 struct MesoBuffers {
-    Buffer heights, distances, grid, atlas, quadrics;
-    std::array<const Buffer*, 5> all() const { return {&heights, &distances, &grid, &atlas, &quadrics}; }
+    Buffer heights, distances, grid, atlas, quadrics, solidStarts, solidEntries;
+    std::array<const Buffer*, 7> all() const { return {&heights, &distances, &grid, &atlas, &quadrics, &solidStarts, &solidEntries}; }
     std::size_t bytes = 0; ///< uploaded bytes
 };
 
