@@ -750,7 +750,11 @@ TEST_CASE("the solid's corner normals survive the GPU's packing; voxel normals r
             const glm::vec3 row(s.entryRow(e, part));
             CHECK(glm::uintBitsToFloat(r.x) == row.x);
             CHECK(glm::uintBitsToFloat(r.z) == row.z);
-            const glm::dvec3 n = kern::dmOctDecode(glm::dvec2(glm::unpackSnorm2x16(r.w)));
+            const glm::dvec3 n = kern::dmOctDecode(kern::dmUnpackSnorm2x16(r.w, 32767.0));
+            // GLSL's rule (the spec's division; GLM multiplies by 1 / 32767, an ULP off at times).
+            const auto lo = static_cast<std::int16_t>(r.w & 0xffffu), hi = static_cast<std::int16_t>(r.w >> 16);
+            CHECK(kern::dmUnpackSnorm2x16(r.w, 32767.0f) ==
+                  glm::vec2(static_cast<float>(std::max(-1.0, lo / 32767.0)), static_cast<float>(std::max(-1.0, hi / 32767.0))));
             const auto& tri = s.triangles[static_cast<std::size_t>(s.entries[e].triangle)];
             worst = std::max(worst, glm::length(n - s.normals[static_cast<std::size_t>(tri[static_cast<std::size_t>(part)])]));
         }

@@ -15,7 +15,7 @@
 //   (+5 images    the albedo's and the normal map's MesoAlbedo::words: DM_MESO_IMAGE_BINDING below)
 //   (+6 starts    a solid's MesoSolid::entryStart, uint per voxel and one more: DM_MESO_SOLID_BINDING)
 //   (+7 entries   a solid's triangle rows, three uvec4 an entry (packSolidEntries: xyz the float
-//                 bits of MesoSolid::entryRow, w one corner's unit normal, octahedral, packSnorm2x16))
+//                 bits of MesoSolid::entryRow, w one corner's unit normal, octahedral, two snorm16))
 // A buffer a pipeline does not read may be a 16-byte placeholder.
 #ifndef DISPMAP_MESO_MARCH_GLSL
 #define DISPMAP_MESO_MARCH_GLSL
@@ -154,8 +154,7 @@ DmMesoSolidHit dmMarchDdmSolid(DmMesoSize s, vec3 o, vec3 d, int maxIterations, 
 // The voxel-space shading normal at a solid hit: the corners' normals (the rows' w) mixed by the
 // barycentric uv (kern::dmSolidCornerNormal).
 vec3 dmMesoSolidNormal(int entry, vec2 uv) {
-    return dmSolidCornerNormal(unpackSnorm2x16(dmMesoSolidEntries[3 * entry].w), unpackSnorm2x16(dmMesoSolidEntries[3 * entry + 1].w),
-                               unpackSnorm2x16(dmMesoSolidEntries[3 * entry + 2].w), uv);
+    return dmSolidCornerNormal(dmMesoSolidEntries[3 * entry].w, dmMesoSolidEntries[3 * entry + 1].w, dmMesoSolidEntries[3 * entry + 2].w, uv);
 }
 // Relief mapping (binary >= 0 bisections) or POM (binary < 0); view rays only (d.z < 0; the
 // host checks), linear >= 1.

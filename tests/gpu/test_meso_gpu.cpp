@@ -681,3 +681,77 @@ TEST_CASE("several mesostructures: bad parts are refused before anything is draw
     CHECK(a.iterations == b.iterations);
     dmgpu::checkNoValidationMessages();
 }
+
+// --- Non-height-field detail (meso/solid.h) -------------------------------------------------
+namespace {
+const MesoMaps& beadMaps() { // the parity runner's four beads, 4 x 1 view cones + shadow cones
+    static const MesoMaps maps = [] {
+        dispmap::MesoMapOptions o;
+        o.cones = dispmap::ConeSet{4, 1, true, false};
+        o.distance = false;
+        return dispmap::buildMesoSolidMaps(dispmap::parity::mesoParitySolid(), o);
+    }();
+    return maps;
+}
+} // namespace
+
+TEST_CASE("a solid renders as the CPU's solid march, with its shadows, on the plane and on Spot", "[meso][solid]") {
+    auto& ctx = dmgpu::context();
+    const bool strict = dispmap::parity::strictFor(ctx, dispmap::parity::Options{});
+    const MesoMaps& maps = beadMaps();
+    const std::vector<glm::uvec4> rows = dispmap::packSolidEntries(maps.solid);
+    for (const bool spot : {false, true}) {
+        MesoRenderOptions o = spot ? spotScene(MesoMethod::Ddm) : smallScene(MesoMethod::Ddm);
+        o.technique.iterations = 256;
+        o.shadows = true;
+        o.shadowIterations = 256;
+        if (!spot) o.lightDirection = glm::dvec3(0.8, 0.2, 0.35); // low light: long shadows of the floating beads
+        const MesoImage img = dispmap::vulkan::renderMeso(ctx, maps, o);
+        INFO((spot ? "Spot" : "plane"));
+        const RayParity p = rayParity(maps, o.technique, img);
+        CHECK(p.covered > 64u * 48u / 4);
+        if (strict) CHECK(p.same == p.covered);
+        std::size_t hits = 0, beads = 0, shadowed = 0, shadowSame = 0, shaded = 0;
+        const glm::vec3 vpu(dispmap::vulkan::mesoVoxelsPerUnit(maps, o));
+        const glm::vec3 light(glm::normalize(o.lightDirection));
+        for (std::size_t i = 0; i < img.covered.size(); ++i) {
+            if (!img.covered[i] || !img.hit[i]) continue;
+            ++hits;
+            shadowed += img.shadowed[i];
+            CHECK((img.hitPoint[i].z >= 0.0f && img.hitPoint[i].z <= 16.0f)); // inside the shell
+            const dispmap::MesoSolidHit h = dispmap::marchDdmSolid<float>(dispmap::CompressedDdmView{&maps.ddm}, maps.ddm.cones, maps.solid,
+                                                                          glm::dvec3(img.rayOrigin[i]), glm::dvec3(img.rayDir[i]), 256, 1);
+            beads += h.entry >= 0 ? 1u : 0u;
+            if (spot) continue; // the frame of a Spot pixel is not read back: the plane checks the shadow rays
+            // meso.frag's shadow ray on the CPU: from the hit lifted along the corner normals.
+            const glm::vec3 nv = h.entry >= 0 ? dispmap::kern::dmSolidCornerNormal(rows[3 * std::size_t(h.entry)].w, rows[3 * std::size_t(h.entry) + 1].w,
+                                                                                   rows[3 * std::size_t(h.entry) + 2].w, glm::vec2(h.uv))
+                                              : glm::vec3(0, 0, 1);
+            const glm::vec3 so = glm::vec3(img.hitPoint[i]) + nv * static_cast<float>(o.shadowOffset);
+            const glm::vec3 sd = dispmap::kern::dmTangentToVoxel(light, vpu);
+            const dispmap::MesoSolidHit s = dispmap::marchDdmSolid<float>(dispmap::CompressedDdmView{&maps.ddm}, maps.ddm.cones, maps.solid,
+                                                                          glm::dvec3(so), glm::dvec3(sd), o.shadowIterations, 1);
+            shadowSame += s.hit == (img.shadowed[i] != 0) && s.iterations == static_cast<int>(img.shadowIterations[i]) ? 1u : 0u;
+            // The pixel's red as the CPU shades it: the checker's albedo, Lambert with the corner
+            // normals taken to the world (dmFrameVoxelNormal on the plane's axes); within one
+            // level of 8 bits (the shader's float colour is rounded to UNORM8).
+            const glm::vec3 n = dispmap::kern::dmFrameVoxelNormal(nv, glm::vec3(1, 0, 0), glm::vec3(0, 1, 0), glm::vec3(0, 0, 1), vpu);
+            const float albedo = dispmap::kern::dmMesoChecker(glm::vec2(img.hitPoint[i]), static_cast<float>(o.checkerVoxels)) * 0.95f;
+            const float red = albedo * dispmap::kern::dmMesoShade(1.0f, n, light, static_cast<float>(o.ambient), img.shadowed[i] ? 0.0f : 1.0f);
+            shaded += std::abs(red * 255.0f - float(img.rgba[4 * i])) <= 1.0f ? 1u : 0u;
+        }
+        INFO(p.covered << " covered, " << hits << " hits, " << beads << " on a bead, " << shadowed << " shadowed, " << shadowSame
+                       << " shadow rays as on the CPU, " << shaded << " shaded as on the CPU");
+        CHECK(beads > hits / 5); // the beads are in view, not only the floor
+        CHECK(shadowed > hits / 20);
+        if (!spot) CHECK(shaded == hits);
+        if (!spot && strict) CHECK(shadowSame == hits);
+    }
+    // What a solid cannot do: relief mapping / POM (they read heights), a normal map.
+    MesoRenderOptions bad = smallScene(MesoMethod::Relief);
+    CHECK_THROWS_WITH(dispmap::vulkan::renderMeso(ctx, maps, bad), Catch::Contains("marched by the DDM"));
+    bad = smallScene(MesoMethod::Ddm);
+    bad.normalMap = std::make_shared<const dispmap::MesoAlbedo>(dispmap::mesoAlbedo(2, 2, std::vector<std::uint8_t>(16, 128)));
+    CHECK_THROWS_WITH(dispmap::vulkan::renderMeso(ctx, maps, bad), Catch::Contains("normal map needs a height field"));
+    dmgpu::checkNoValidationMessages();
+}

@@ -223,11 +223,21 @@ DM_TFUNC rvec3 dmOctDecode(rvec2 e) {
     return n * (real(1) / sqrt(dmDot3(n, n)));
 }
 
-// The shading normal at barycentric uv of a triangle whose corners' unit normals are
-// octahedral n0, n1, n2 (Phong's interpolation), unit length; the first corner's where they cancel.
-DM_TFUNC rvec3 dmSolidCornerNormal(rvec2 n0, rvec2 n1, rvec2 n2, rvec2 uv) {
-    rvec3 a = dmOctDecode(n0);
-    rvec3 n = (a * ((real(1) - uv.x) - uv.y) + dmOctDecode(n1) * uv.x) + dmOctDecode(n2) * uv.y;
+// GLSL's unpackSnorm2x16 (unit 32767), spelled out so that both sides round alike: the low
+// and the high 16 bits as signed integers over unit, clamped to [-1, 1].
+DM_TFUNC rvec2 dmUnpackSnorm2x16(uint w, real unit) {
+    int lo = int(w << 16u) >> 16;
+    int hi = int(w) >> 16;
+    return clamp(rvec2(real(lo), real(hi)) / unit, real(-1), real(1));
+}
+
+// The shading normal at barycentric uv of a triangle whose corners' unit normals are n0, n1, n2
+// (octahedral, two snorm16 a word: packSolidEntries) mixed by uv (Phong's interpolation), unit
+// length; the first corner's where they cancel.
+DM_TFUNC rvec3 dmSolidCornerNormal(uint n0, uint n1, uint n2, rvec2 uv) {
+    real unit = real(32767);
+    rvec3 a = dmOctDecode(dmUnpackSnorm2x16(n0, unit));
+    rvec3 n = (a * ((real(1) - uv.x) - uv.y) + dmOctDecode(dmUnpackSnorm2x16(n1, unit)) * uv.x) + dmOctDecode(dmUnpackSnorm2x16(n2, unit)) * uv.y;
     real l = dmDot3(n, n);
     return l > real(0) ? n * (real(1) / sqrt(l)) : a;
 }
