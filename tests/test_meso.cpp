@@ -790,3 +790,67 @@ TEST_CASE("the solid's corner normals survive the GPU's packing; voxel normals r
 }
 
 } // namespace dmtest_meso
+
+namespace dmtest_meso {
+
+TEST_CASE("chain mail: a mesh that crosses the tile's side links the next tile's ring", "[meso][solid]") {
+    // Ring A lies flat in the middle of a tile 3 units wide; ring B stands in the xz plane,
+    // centred on the tile's side x = 3, through A's hole: B's copy from the tile before (x - 3)
+    // passes through A's hole from the other side, so the rings chain along x.
+    std::vector<glm::dvec3> v;
+    std::vector<std::array<int, 3>> t;
+    appendTorus({1.5, 1.5, 1.0}, {0, 0, 1}, 1.0, 0.25, 24, 10, v, t);
+    appendTorus({3.0, 1.5, 1.0}, {0, 1, 0}, 1.0, 0.25, 24, 10, v, t);
+    const MesoSolidTile tile{{0.0, 0.0, -0.5}, 3.0}; // the floor half a unit below B's lowest point
+    const MesoSolid s = mesoSolidFromMesh(v, t, 24, 24, 24, tile);
+    const double k = 24.0 / 3.0; // voxels a unit
+    const auto solidAt = [&](glm::dvec3 p) { // p in mesh units
+        const glm::dvec3 q = (p - tile.corner) * k * double(s.sub);
+        return s.subSolid(static_cast<int>(std::floor(q.x)), static_cast<int>(std::floor(q.y)), static_cast<int>(std::floor(q.z)));
+    };
+    CHECK(solidAt({2.0, 1.5, 1.0}));   // B's tube inside A's hole (B itself)
+    CHECK(solidAt({1.0, 1.5, 1.0}));   // B's copy from the tile before, inside A's hole from the other side
+    CHECK(solidAt({3.0, 1.5, 2.0}));   // B's top on the side x = 3, i.e. x = 0 of this tile
+    CHECK(solidAt({0.02, 1.5, 2.0}));
+    CHECK(!solidAt({1.5, 1.5, 1.0}));  // the middle of A's hole is empty
+    CHECK(!solidAt({1.5, 0.2, 2.0}));  // above A, away from B
+    // Every corner normal points out of its ring's tube.
+    for (std::size_t i = 0; i < s.vertices.size(); ++i) {
+        const bool ringA = i < 240;
+        const glm::dvec3 c = (ringA ? glm::dvec3(1.5, 1.5, 1.0) : glm::dvec3(3.0, 1.5, 1.0)) * k - tile.corner * k;
+        const glm::dvec3 axis = ringA ? glm::dvec3(0, 0, 1) : glm::dvec3(0, 1, 0);
+        glm::dvec3 radial = s.vertices[i] - c - axis * glm::dot(s.vertices[i] - c, axis);
+        radial = glm::normalize(radial) * k; // the centre circle's point (R = 1 unit)
+        CHECK(glm::dot(s.normals[i], s.vertices[i] - (c + radial)) > 0);
+    }
+    // The march through copies across the seam finds the double reference's hits.
+    MesoMapOptions opt;
+    opt.cones = ConeSet{4, 1, true, false};
+    opt.distance = false;
+    const MesoMaps maps = buildMesoSolidMaps(s, opt);
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> U(0.0, 1.0);
+    int same = 0, rings = 0;
+    const int rays = 2000;
+    for (int n = 0; n < rays; ++n) {
+        const bool up = n % 4 == 3;
+        const glm::dvec3 o(U(rng) * 72 - 24, U(rng) * 72 - 24, up ? U(rng) * 24 : 24.0);
+        const double z = (0.02 + 0.98 * U(rng)) * (up ? 1 : -1), az = 6.283185307179586 * U(rng);
+        const glm::dvec3 d(std::sqrt(1 - z * z) * std::cos(az), std::sqrt(1 - z * z) * std::sin(az), z);
+        const MesoHit ref = marchSolidReference(s, o, d);
+        const MesoSolidHit h = marchDdmSolid(CompressedDdmView{&maps.ddm}, maps.ddm.cones, s, o, d);
+        INFO("o " << o.x << "," << o.y << "," << o.z << " d " << d.x << "," << d.y << "," << d.z);
+        REQUIRE(h.hit == ref.hit);
+        if (h.hit) REQUIRE(h.t == Approx(ref.t).margin(1e-9)); // both in double
+        ++same;
+        rings += h.entry >= 0 ? 1 : 0;
+    }
+    CHECK(same == rays);
+    CHECK(rings > rays / 4);
+    // The tile's bad inputs.
+    CHECK_THROWS_WITH(mesoSolidFromMesh(v, t, 24, 24, 24, MesoSolidTile{{0, 0, 0}, 0.0}), Catch::Contains("size > 0"));
+    CHECK_THROWS_WITH(mesoSolidFromMesh(v, t, 24, 24, 8, tile), Catch::Contains("more than 8 layers"));
+    CHECK_THROWS_WITH(mesoSolidFromMesh(v, t, 24, 24, 24, MesoSolidTile{{-20.0, 0, -0.5}, 3.0}), Catch::Contains("tiles beyond"));
+}
+
+} // namespace dmtest_meso

@@ -235,10 +235,11 @@ inline bool raySolidVoxel(const MesoSolid& s, const glm::ivec3& v, const glm::dv
         const auto& tri = s.triangles[static_cast<std::size_t>(s.entries[e].triangle)];
         const glm::dvec3 a = s.vertices[static_cast<std::size_t>(tri[0])] + shift;
         const glm::dvec3 e1 = s.vertices[static_cast<std::size_t>(tri[1])] + shift - a, e2 = s.vertices[static_cast<std::size_t>(tri[2])] + shift - a;
-        // The triangle may lie in the neighbouring tile of the one v is in: try the three shifts
-        // along each axis that put its box near v.
-        for (int sy = -1; sy <= 1; ++sy)
-            for (int sx = -1; sx <= 1; ++sx) {
+        // The triangle may lie up to kMaxSolidTileReach tiles beyond the one v is in: try every
+        // shift along each axis that may put it near v.
+        const int R = static_cast<int>(kMaxSolidTileReach) + 1;
+        for (int sy = -R; sy <= R; ++sy)
+            for (int sx = -R; sx <= R; ++sx) {
                 const glm::dvec3 q = a + glm::dvec3(sx * s.width, sy * s.height, 0);
                 const glm::dvec3 p = glm::cross(d, e2);
                 const double det = glm::dot(e1, p);

@@ -84,39 +84,63 @@ struct MesoSolid {
     }
 };
 
-/// Voxelises a closed mesh. `vertices` in any unit: x and y of their bounding box are scaled
-/// uniformly onto one tile of width x height voxels (the larger extent fills it), z by the same
-/// scale from its lowest point at z = `floorGap` voxels up. ArgumentError for no triangles,
-/// indices out of range, non-finite or degenerate (zero-extent) vertices, a mesh too tall
-/// for the layers.
-inline MesoSolid mesoSolidFromMesh(const std::vector<glm::dvec3>& vertices, const std::vector<std::array<int, 3>>& triangles, int width,
-                                   int height, int layers, int sub = 2, double floorGap = 0.0) {
-    detail::checkMesoSize("mesh mesostructure", width, height, layers);
-    if (sub < 1 || sub > 8) throw ArgumentError("mesh mesostructure: sub-voxels " + std::to_string(sub) + " not in 1..8");
+/// Where a mesh lies in the tile (mesoSolidFromMesh): the mesh's point `corner` is the tile's
+/// corner on the floor, voxel-space (0, 0, 0), and `size` mesh units span the tile's width
+/// (voxels are cubes: the tile's height spans size * height / width). A mesh may cross the
+/// tile's sides: what lies beyond one shows in the next tile (x and y repeat), so a ring that
+/// crosses the side at x = size links the ring of the next tile, as chain mail does.
+struct MesoSolidTile {
+    glm::dvec3 corner{0.0};
+    double size = 1;
+};
+
+/// Largest distance, in tiles, of a mesh's vertices from its tile (mesoSolidFromMesh): a
+/// triangle is copied once per tile it spans.
+inline constexpr double kMaxSolidTileReach = 4;
+
+namespace detail {
+inline void checkSolidMesh(const std::vector<glm::dvec3>& vertices, const std::vector<std::array<int, 3>>& triangles) {
     if (triangles.empty()) throw ArgumentError("mesh mesostructure: the mesh has no triangles");
-    glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
-    for (const glm::dvec3& v : vertices) {
+    for (const glm::dvec3& v : vertices)
         if (!std::isfinite(v.x + v.y + v.z)) throw ArgumentError("mesh mesostructure: a vertex is not finite");
-        lo = glm::min(lo, v);
-        hi = glm::max(hi, v);
-    }
     for (const auto& t : triangles)
         for (int i : t)
             if (i < 0 || static_cast<std::size_t>(i) >= vertices.size())
                 throw ArgumentError("mesh mesostructure: vertex index " + std::to_string(i) + " out of range");
-    const glm::dvec3 ext = hi - lo;
-    if (!(ext.x > 0 && ext.y > 0 && ext.z > 0)) throw ArgumentError("mesh mesostructure: the mesh is flat (degenerate bounding box)");
-    const double scale = std::min(width / ext.x, height / ext.y);
-    if (ext.z * scale + floorGap > layers)
-        throw ArgumentError("mesh mesostructure: the mesh is " + std::to_string(ext.z * scale + floorGap) + " voxels tall, more than " +
-                            std::to_string(layers) + " layers");
+}
+} // namespace detail
+
+/// Voxelises a closed mesh placed by `tile` into width x height x layers voxels with sub^3
+/// sub-voxels each. ArgumentError for no triangles, indices out of range, non-finite vertices
+/// or tile, a mesh that rises above the layers or reaches more than kMaxSolidTileReach tiles
+/// beyond its tile's sides.
+inline MesoSolid mesoSolidFromMesh(const std::vector<glm::dvec3>& vertices, const std::vector<std::array<int, 3>>& triangles, int width,
+                                   int height, int layers, const MesoSolidTile& tile, int sub = 2) {
+    detail::checkMesoSize("mesh mesostructure", width, height, layers);
+    if (sub < 1 || sub > 8) throw ArgumentError("mesh mesostructure: sub-voxels " + std::to_string(sub) + " not in 1..8");
+    detail::checkSolidMesh(vertices, triangles);
+    if (!std::isfinite(tile.corner.x + tile.corner.y + tile.corner.z) || !(tile.size > 0) || !std::isfinite(tile.size))
+        throw ArgumentError("mesh mesostructure: the tile needs a finite corner and a size > 0");
+    const double scale = width / tile.size;
+    double top = -std::numeric_limits<double>::infinity(), beyond = 0;
+    for (const glm::dvec3& v : vertices) {
+        const glm::dvec3 q = (v - tile.corner) * scale;
+        top = std::max(top, q.z);
+        beyond = std::max({beyond, -q.x / width, q.x / width - 1, -q.y / height, q.y / height - 1});
+    }
+    if (top > layers)
+        throw ArgumentError("mesh mesostructure: the mesh is " + std::to_string(top) + " voxels tall, more than " + std::to_string(layers) +
+                            " layers");
+    if (!(beyond <= kMaxSolidTileReach))
+        throw ArgumentError("mesh mesostructure: the mesh reaches " + std::to_string(beyond) + " tiles beyond its tile's sides (at most " +
+                            std::to_string(static_cast<int>(kMaxSolidTileReach)) + ")");
     MesoSolid s;
     s.width = width;
     s.height = height;
     s.layers = layers;
     s.sub = sub;
     s.triangles = triangles;
-    for (const glm::dvec3& v : vertices) s.vertices.push_back(glm::dvec3((v.x - lo.x) * scale, (v.y - lo.y) * scale, (v.z - lo.z) * scale + floorGap));
+    for (const glm::dvec3& v : vertices) s.vertices.push_back((v - tile.corner) * scale);
     const int fw = width * sub, fh = height * sub, fz = layers * sub;
     const double h = 1.0 / sub;
     s.solid.assign(static_cast<std::size_t>(fw) * static_cast<std::size_t>(fh) * static_cast<std::size_t>(fz), 0);
@@ -126,28 +150,37 @@ inline MesoSolid mesoSolidFromMesh(const std::vector<glm::dvec3>& vertices, cons
                     static_cast<std::size_t>(fw) +
                 static_cast<std::size_t>(detail::wrapIndex(x, fw))] = 1;
     };
-    // Inside: parity of the crossings of the vertical line through each sub-voxel centre.
-    std::vector<double> zs;
-    for (int y = 0; y < fh; ++y)
-        for (int x = 0; x < fw; ++x) {
-            const double px = (x + 0.5) * h, py = (y + 0.5) * h;
-            zs.clear();
-            for (const auto& t : s.triangles) {
-                const glm::dvec3 &a = s.vertices[static_cast<std::size_t>(t[0])], &b = s.vertices[static_cast<std::size_t>(t[1])],
-                                 &c = s.vertices[static_cast<std::size_t>(t[2])];
-                const double d = (b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y);
-                if (d == 0) continue;
+    // Inside: parity of the crossings of the vertical line through each sub-voxel centre, with
+    // every copy of each triangle (shifted by whole tiles) that the line meets.
+    std::vector<std::vector<double>> zs(static_cast<std::size_t>(fw) * static_cast<std::size_t>(fh));
+    for (const auto& t : s.triangles) {
+        const glm::dvec3 &a = s.vertices[static_cast<std::size_t>(t[0])], &b = s.vertices[static_cast<std::size_t>(t[1])],
+                         &c = s.vertices[static_cast<std::size_t>(t[2])];
+        const double d = (b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y);
+        if (d == 0) continue; // vertical or degenerate: no vertical line crosses it once
+        const glm::dvec3 tlo = glm::min(a, glm::min(b, c)), thi = glm::max(a, glm::max(b, c));
+        // Sub-voxel columns x whose centre (x + 1/2) h may lie in [tlo.x, thi.x] (unwrapped).
+        const int x0 = static_cast<int>(std::ceil(tlo.x / h - 0.5)), x1 = static_cast<int>(std::floor(thi.x / h - 0.5));
+        const int y0 = static_cast<int>(std::ceil(tlo.y / h - 0.5)), y1 = static_cast<int>(std::floor(thi.y / h - 0.5));
+        for (int y = y0; y <= y1; ++y)
+            for (int x = x0; x <= x1; ++x) {
+                const double px = (x + 0.5) * h, py = (y + 0.5) * h;
                 const double u = ((px - a.x) * (c.y - a.y) - (c.x - a.x) * (py - a.y)) / d;
                 const double v = ((b.x - a.x) * (py - a.y) - (px - a.x) * (b.y - a.y)) / d;
                 if (u < 0 || v < 0 || u + v > 1) continue;
-                zs.push_back(a.z + u * (b.z - a.z) + v * (c.z - a.z));
+                zs[static_cast<std::size_t>(detail::wrapIndex(y, fh)) * static_cast<std::size_t>(fw) + static_cast<std::size_t>(detail::wrapIndex(x, fw))]
+                    .push_back(a.z + u * (b.z - a.z) + v * (c.z - a.z));
             }
-            std::sort(zs.begin(), zs.end());
+    }
+    for (int y = 0; y < fh; ++y)
+        for (int x = 0; x < fw; ++x) {
+            std::vector<double>& z = zs[static_cast<std::size_t>(y) * static_cast<std::size_t>(fw) + static_cast<std::size_t>(x)];
+            std::sort(z.begin(), z.end());
             // A line through a shared edge or vertex meets each triangle there: one crossing.
-            zs.erase(std::unique(zs.begin(), zs.end(), [](double a, double b) { return b - a <= 1e-9; }), zs.end());
-            for (std::size_t k = 0; k + 1 < zs.size(); k += 2)
-                for (int z = std::max(0, static_cast<int>(std::floor(zs[k] / h))); z < fz && (z + 0.5) * h <= zs[k + 1]; ++z)
-                    if ((z + 0.5) * h >= zs[k]) mark(x, y, z);
+            z.erase(std::unique(z.begin(), z.end(), [](double p, double q) { return q - p <= 1e-9; }), z.end());
+            for (std::size_t k = 0; k + 1 < z.size(); k += 2)
+                for (int iz = std::max(0, static_cast<int>(std::floor(z[k] / h))); iz < fz && (iz + 0.5) * h <= z[k + 1]; ++iz)
+                    if ((iz + 0.5) * h >= z[k]) mark(x, y, iz);
         }
     // Surface: sub-voxels (and voxels) the triangle's plane passes near, inside its box.
     std::vector<std::vector<MesoSolidEntry>> lists(static_cast<std::size_t>(width) * static_cast<std::size_t>(height) *
@@ -195,6 +228,25 @@ inline MesoSolid mesoSolidFromMesh(const std::vector<glm::dvec3>& vertices, cons
     return s;
 }
 
+/// Voxelises a closed mesh fitted to the tile: x and y of its vertices' bounding box scaled
+/// uniformly onto the tile (the larger extent fills it), z by the same scale from its lowest
+/// point at z = `floorGap` voxels up (mesoSolidFromMesh with that MesoSolidTile).
+/// ArgumentError as that, and for a flat (zero-extent) bounding box.
+inline MesoSolid mesoSolidFromMesh(const std::vector<glm::dvec3>& vertices, const std::vector<std::array<int, 3>>& triangles, int width,
+                                   int height, int layers, int sub = 2, double floorGap = 0.0) {
+    detail::checkMesoSize("mesh mesostructure", width, height, layers);
+    detail::checkSolidMesh(vertices, triangles);
+    glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+    for (const glm::dvec3& v : vertices) {
+        lo = glm::min(lo, v);
+        hi = glm::max(hi, v);
+    }
+    const glm::dvec3 ext = hi - lo;
+    if (!(ext.x > 0 && ext.y > 0 && ext.z > 0)) throw ArgumentError("mesh mesostructure: the mesh is flat (degenerate bounding box)");
+    const double scale = std::min(width / ext.x, height / ext.y);
+    return mesoSolidFromMesh(vertices, triangles, width, height, layers, MesoSolidTile{lo - glm::dvec3(0, 0, floorGap / scale), width / scale}, sub);
+}
+
 /// The octahedral encoding of unit vector n in [-1, 1]^2 (the inverse of kern::dmOctDecode).
 inline glm::dvec2 octEncode(const glm::dvec3& n) {
     const double l1 = std::abs(n.x) + std::abs(n.y) + std::abs(n.z);
@@ -239,6 +291,29 @@ inline void appendUvSphere(glm::dvec3 c, double r, int n, std::vector<glm::dvec3
             t.push_back({id(i, j), id(i + 1, j + 1), id(i + 1, j)});
         }
     for (int j = 0; j < 2 * n; ++j) t.push_back({id(n - 1, j), id(n - 1, j + 1), top});
+}
+
+/// Appends a closed torus (outward triangles, n segments around its axis, m around its tube)
+/// centred at c with unit axis `axis`, radii R (of the centre circle) > r (of the tube): a
+/// ring of chain mail.
+inline void appendTorus(glm::dvec3 c, glm::dvec3 axis, double R, double r, int n, int m, std::vector<glm::dvec3>& v,
+                        std::vector<std::array<int, 3>>& t) {
+    const glm::dvec3 w = glm::normalize(axis);
+    const glm::dvec3 u = glm::normalize(glm::cross(w, std::abs(w.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0))), b = glm::cross(w, u);
+    const int base = static_cast<int>(v.size());
+    const double pi = 3.14159265358979323846;
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < m; ++j) {
+            const double a = 2 * pi * i / n, e = 2 * pi * j / m;
+            const glm::dvec3 radial = std::cos(a) * u + std::sin(a) * b;
+            v.push_back(c + (R + r * std::cos(e)) * radial + r * std::sin(e) * w);
+        }
+    const auto id = [&](int i, int j) { return base + (i % n) * m + (j % m); };
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < m; ++j) {
+            t.push_back({id(i, j), id(i + 1, j), id(i + 1, j + 1)});
+            t.push_back({id(i, j), id(i + 1, j + 1), id(i, j + 1)});
+        }
 }
 
 /// Donnelly's signed map of the solid: the samples at (i, j, k + 1/2) read the exact distance

@@ -63,6 +63,7 @@ namespace dispmap {
 struct MesoSceneDesc {
     std::string name;
     std::string heightImage;        ///< image path (resolved against the scene's folder); empty: the function
+    std::string mesh;               ///< "mesh": a closed OBJ mesh, non-height-field detail (meso/solid.h); empty: a height field
     std::string function = "grating";
     std::string albedoImage;        ///< colour image path (resolved); empty: the checker
     std::string normalsImage;       ///< normal map path (resolved); empty: none, or from the heights
@@ -139,6 +140,9 @@ inline std::uint64_t mesoBuildBytes(int width, int height, int layers, const Mes
     if (o.quadrics) bytes += 48 * texels;
     return bytes;
 }
+
+/// Sub-voxels per axis of a scene's "mesh" (mesoSolidFromMesh).
+inline constexpr int kMesoSceneSolidSub = 2;
 
 /// The peak memory of voxelising a mesh (mesoSolidFromMesh with `sub` sub-voxels per axis) and
 /// building its distance map and the DDM of `cones` (`dispmap meso --mesh`): the sub-voxels,
@@ -353,8 +357,8 @@ inline void parseMesoPart(const nlohmann::json& m, const std::string& baseDir, M
     const std::string& where = s.key;
     const auto fail = [&](const std::string& why) { return ArgumentError(name + ": " + why); };
     mesoKeys(m, name, where,
-             {"material", "height", "function", "size", "layers", "depth", "cones", "block", "albedo", "normals", "normalScale", "normalGreen",
-              "repeat", "slab"});
+             {"material", "height", "function", "mesh", "size", "layers", "depth", "cones", "block", "albedo", "normals", "normalScale",
+              "normalGreen", "repeat", "slab"});
     // Its own tile size on the base and slab depth, in place of the scene's.
     if (m.contains("repeat")) {
         if (!s.base) throw fail("'" + where + ".repeat' needs a 'base' (on the plane 'tile' sizes the tiles)");
@@ -378,6 +382,17 @@ inline void parseMesoPart(const nlohmann::json& m, const std::string& baseDir, M
         return p.is_absolute() || baseDir.empty() ? p.string() : (std::filesystem::path(baseDir) / p).string();
     };
     if (m.contains("height")) s.heightImage = path("height");
+    if (m.contains("mesh")) {
+        if (m.contains("height") || m.contains("function"))
+            throw fail("'" + where + ".mesh' is the detail itself: no 'height' or 'function' beside it");
+        // What a solid's march does not have: a depth of white, normals from or over heights,
+        // and every technique but the DDM's (the others read heights; meso.frag).
+        for (const char* key : {"depth", "normals"})
+            if (m.contains(key)) throw fail("'" + where + "." + key + "' applies to a height field, not to a 'mesh'");
+        if (s.technique.method != MesoMethod::Ddm)
+            throw fail("'" + where + ".mesh' (non-height-field detail) is marched by the DDM: 'effects.technique' must be \"ddm\"");
+        s.mesh = path("mesh");
+    }
     if (m.contains("albedo")) s.albedoImage = path("albedo");
     if (m.contains("normals")) {
         if (m["normals"].is_string() && m["normals"].get_ref<const std::string&>() == "height") s.normalsFromHeight = true;
@@ -400,6 +415,7 @@ inline void parseMesoPart(const nlohmann::json& m, const std::string& baseDir, M
     if (s.heightImage.empty() && s.function != "grating" && s.function != "waves")
         throw fail("'" + where + ".function': unknown function '" + mesoExcerpt(s.function) + "' (grating, waves)");
     s.size = mesoNumber(m, "size", s.heightImage.empty() ? 64 : 0, name, where + ".");
+    if (!s.mesh.empty() && s.size == 0) throw fail("'" + where + ".size' must be given for a 'mesh' (the voxels per side of a tile)");
     s.layers = mesoNumber(m, "layers", s.layers, name, where + ".");
     s.depth = mesoNumber(m, "depth", s.depth, name, where + ".");
     s.block = mesoNumber(m, "block", s.block, name, where + ".");
@@ -421,6 +437,11 @@ inline void parseMesoPart(const nlohmann::json& m, const std::string& baseDir, M
     if (s.size > 0)
         if (const std::string why = mesoBuildProblem(s.size, s.size, s.layers, mesoSceneMapOptions(s)); !why.empty())
             throw fail("'" + where + "': " + why);
+    if (!s.mesh.empty())
+        if (const std::uint64_t bytes = mesoSolidBuildBytes(s.size, s.size, s.layers, kMesoSceneSolidSub, s.cones); bytes > kMaxMesoBuildBytes)
+            throw fail("'" + where + ".mesh' voxelised into " + std::to_string(s.size) + " x " + std::to_string(s.size) + " x " +
+                       std::to_string(s.layers) + " voxels would take about " + std::to_string(bytes >> 20) + " MiB while its maps are built, more than " +
+                       std::to_string(kMaxMesoBuildBytes >> 20) + " MiB: a smaller 'size' or fewer 'layers'");
 }
 } // namespace detail
 
@@ -540,7 +561,9 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
 }
 
 /// The scene's height field (the image box-filtered to `size`, or the function), and the maps
-/// its effects need (mesoMapOptionsFor): nothing else is built. Everything the builders would
+/// its effects need (mesoMapOptionsFor): nothing else is built. A "mesh" is voxelised into
+/// size x size x layers voxels (mesoSolidFromMesh: its bounding box's x and y scaled onto the
+/// tile, z alike from the floor up) and gets a solid's maps (buildMesoSolidMaps). Everything the builders would
 /// throw on is checked first (mesoBuildProblem), and an image above kMaxMesoSize without a
 /// `size` to filter it to is refused from its header, before it is decoded.
 inline MesoMaps buildMesoSceneMaps(const MesoSceneDesc& s) {
@@ -551,6 +574,15 @@ inline MesoMaps buildMesoSceneMaps(const MesoSceneDesc& s) {
         if (const std::string why = mesoBuildProblem(width, height, s.layers, o); !why.empty())
             throw ArgumentError(s.name + ": '" + s.key + "': " + why);
     };
+    if (!s.mesh.empty()) {
+        check(s.size, s.size);
+        const TriangleSoup soup = readObjTriangles(s.mesh);
+        try {
+            return buildMesoSolidMaps(mesoSolidFromMesh(soup.positions, soup.triangles, s.size, s.size, s.layers, kMesoSceneSolidSub), o);
+        } catch (const ArgumentError& e) {
+            throw ArgumentError(s.name + ": '" + s.key + ".mesh': " + e.what());
+        }
+    }
     if (!s.heightImage.empty()) {
         HeightImage img = readHeightPng(s.heightImage, s.size > 0 ? kMaxHeightImageSize : kMaxMesoSize,
                                         " (give '" + s.key + ".size' to box-filter it smaller)");
