@@ -854,3 +854,67 @@ TEST_CASE("chain mail: a mesh that crosses the tile's side links the next tile's
 }
 
 } // namespace dmtest_meso
+
+#include "dispmap/scene/meso.h"
+#include "test_files.h"
+
+namespace dmtest_meso {
+
+TEST_CASE("a scene's mesh mesostructure: chain mail placed in its tile, and clear errors", "[meso][solid][scene]") {
+    const std::string data = DISPMAP_TEST_DATA;
+    const auto parse = [&](const std::string& json) { return parseMesoScene(nlohmann::json::parse(json), "c.json", data); };
+    const MesoSceneDesc s = parse(R"({"mesostructure": {"mesh": "chainmail.obj", "meshTile": {"corner": [0, 0, -1.3], "size": 3},
+                                     "size": 24, "layers": 24}, "effects": {"shadows": true}})");
+    CHECK(s.mesh == (std::filesystem::path(data) / "chainmail.obj").string());
+    REQUIRE(s.meshTile);
+    const MesoMaps maps = buildMesoSceneMaps(s);
+    REQUIRE(maps.isSolid());
+    CHECK(maps.solid.triangles.size() == 1536); // 2 rings x 32 x 12 quads, two triangles each
+    CHECK(maps.distance.d.empty());             // the DDM march needs no distance map
+    CHECK(maps.ddm.cones.shadow);               // shadows: the shadow cones
+    // The tile's corner is the mesh's (0, 0, -1.3): ring A's middle (1.5, 1.5, 0) is voxel
+    // (12, 12, 10.4), empty (its hole); its tube at (2.5, 1.5, 0) is solid.
+    CHECK(!maps.solid.subSolid(24, 24, 20));
+    CHECK(maps.solid.subSolid(40, 24, 20));
+    // Without meshTile the bounding box is fitted: the same rings, other voxels.
+    const MesoMaps fitted = buildMesoSceneMaps(parse(R"({"mesostructure": {"mesh": "chainmail.obj", "size": 24, "layers": 24}})"));
+    CHECK(fitted.solid.triangles.size() == 1536);
+    CHECK(fitted.solid.entries.size() != maps.solid.entries.size());
+
+    using Row = std::pair<const char*, const char*>;
+    const std::vector<Row> rows = {
+        {R"({"mesostructure": {"mesh": "chainmail.obj", "height": "x.png"}})", "no 'height' or 'function' beside it"},
+        {R"({"mesostructure": {"mesh": "chainmail.obj", "function": "waves"}})", "no 'height' or 'function' beside it"},
+        {R"({"mesostructure": {"mesh": "chainmail.obj", "depth": 4}})", "'mesostructure.depth' applies to a height field"},
+        {R"({"mesostructure": {"mesh": "chainmail.obj", "normals": "height"}})", "'mesostructure.normals' applies to a height field"},
+        {R"({"mesostructure": {"mesh": "chainmail.obj"}, "effects": {"technique": "relief"}})", "is marched by the DDM"},
+        {R"({"mesostructure": {"mesh": "chainmail.obj", "size": 0}})", "'mesostructure.size' must be given for a 'mesh'"},
+        {R"({"mesostructure": {"meshTile": {"corner": [0, 0, 0], "size": 3}}})", "'mesostructure.meshTile' without 'mesostructure.mesh'"},
+        {R"({"mesostructure": {"mesh": "chainmail.obj", "meshTile": {"size": 3}}})", "needs 'corner' [x, y, z] and 'size'"},
+        {R"({"mesostructure": {"mesh": "chainmail.obj", "meshTile": {"corner": [0, 0, 0], "size": -1}}})", "must be > 0"},
+        {R"({"mesostructure": {"mesh": "chainmail.obj", "meshTile": {"corner": [0, 0, 0], "size": 3, "scale": 2}}})", "scale"},
+        {R"({"mesostructure": {"mesh": 7}})", "'mesostructure.mesh' must be a file name"},
+        {R"({"mesostructure": {"mesh": "chainmail.obj", "size": 4096, "layers": 256}})", "MiB"},
+    };
+    for (const auto& [json, message] : rows) {
+        INFO(json);
+        CHECK_THROWS_WITH(parse(json), Catch::Contains("c.json: ") && Catch::Contains(message));
+    }
+    // Errors found when the mesh is read: a missing file, a mesh too tall for the layers.
+    CHECK_THROWS_AS(buildMesoSceneMaps(parse(R"({"mesostructure": {"mesh": "no_such.obj"}})")), FileError);
+    CHECK_THROWS_WITH(buildMesoSceneMaps(parse(R"({"mesostructure": {"mesh": "chainmail.obj", "meshTile": {"corner": [0, 0, -1.3], "size": 3},
+                                                   "size": 24, "layers": 8}})")),
+                      Catch::Contains("c.json: 'mesostructure.mesh': mesh mesostructure: the mesh is") && Catch::Contains("more than 8 layers"));
+    dmtest::TempDir dir("dispmap_solid_");
+    // An open mesh is a two-sided sheet (no inside; its triangles are still hit exactly): one
+    // triangle tilted over the tile, its lowest corner on the floor.
+    std::ofstream((dir.path / "open.obj").string()) << "v 0 0 0\nv 1 0 0.5\nv 0 1 0.5\nf 1 2 3\n";
+    const auto inDir = [&](const std::string& json) { return parseMesoScene(nlohmann::json::parse(json), "c.json", dir.path.string()); };
+    const MesoMaps sheet = buildMesoSceneMaps(inDir(R"({"mesostructure": {"mesh": "open.obj", "size": 8, "layers": 8}})"));
+    const MesoSolidHit h = marchDdmSolid(CompressedDdmView{&sheet.ddm}, sheet.ddm.cones, sheet.solid, {2, 2, 8}, {0, 0, -1});
+    CHECK(h.entry >= 0);
+    // z = (x + y) / 2 in mesh units, 8 voxels a unit: voxel (2, 2) is (0.25, 0.25), z 0.25 units = 2 voxels.
+    CHECK(h.t == Approx(8.0 - 2.0).margin(1e-9));
+}
+
+} // namespace dmtest_meso

@@ -122,19 +122,19 @@ Stats measure(const std::vector<Pixel>& px, const std::function<MesoHit(const gl
 // The fragment shader's frame time for the table's camera: voxel space is world space scaled
 // by tileSize / W (cubic voxels) with the slab's top at z = 0.
 // With an albedo and a normal map when given (the shading row).
-double gpuFrameMs(vulkan::Context& ctx, const MesoScene& scene, const MesoMaps& m, const MesoTechnique& t, int frames,
+double gpuFrameMs(vulkan::Context& ctx, const MesoCamera& camera, const MesoMaps& m, const MesoTechnique& t, int frames,
                   std::shared_ptr<const MesoAlbedo> albedo = nullptr, std::shared_ptr<const MesoAlbedo> normalMap = nullptr) {
-    const MesoHeightField& f = scene.field;
+    const MesoHeightField& f = m.field; // a solid's: its sizes
     vulkan::MesoRenderOptions o;
-    o.width = scene.camera.width;
-    o.height = scene.camera.height;
+    o.width = camera.width;
+    o.height = camera.height;
     o.tileSize = 1.0;
     const double s = o.tileSize / f.width;
     o.depth = f.layers * s;
     const auto world = [&](glm::dvec3 v) { return glm::dvec3(v.x * s, v.y * s, (v.z - f.layers) * s); };
-    o.camera.eye = world(scene.camera.eye);
-    o.camera.target = world(scene.camera.target);
-    o.camera.fovYDeg = scene.camera.fovDeg;
+    o.camera.eye = world(camera.eye);
+    o.camera.target = world(camera.target);
+    o.camera.fovYDeg = camera.fovDeg;
     o.planeHalfSize = 12.0; // the far rows reach ~5 tiles away
     o.quads = 8;
     o.technique = t;
@@ -346,7 +346,7 @@ void printMesoTable(std::ostream& out, const MesoTableArgs& args) {
                 bytes = m.denseDdmBytes + (row.technique.quadrics ? m.quadrics.bytes() : 0);
                 compressed = m.ddm.bytes() + (row.technique.quadrics ? m.quadrics.bytes() : 0);
             }
-            if (ctx) st.gpu = gpuFrameMs(*ctx, scene, m, row.technique, args.gpuFrames);
+            if (ctx) st.gpu = gpuFrameMs(*ctx, scene.camera, m, row.technique, args.gpuFrames);
             printRow(out, csv, scene.name, row.label, st, bytes, compressed);
             Goal& g = goals[scene.name];
             if (row.label == "DDM 4x1 + quadric") {
@@ -378,7 +378,7 @@ void printMesoTable(std::ostream& out, const MesoTableArgs& args) {
             std::vector<double> runs[4];
             for (int round = 0; round < 5; ++round)
                 for (std::size_t k = 0; k < 4; ++k)
-                    runs[k].push_back(gpuFrameMs(*ctx, scene, maps.at("4x1"), ddm.technique, args.gpuFrames, (k & 1) ? albedo : nullptr,
+                    runs[k].push_back(gpuFrameMs(*ctx, scene.camera, maps.at("4x1"), ddm.technique, args.gpuFrames, (k & 1) ? albedo : nullptr,
                                                  (k & 2) ? normals : nullptr));
             double ms[4];
             for (std::size_t k = 0; k < 4; ++k) ms[k] = percentile(runs[k], 0.5);
@@ -432,11 +432,12 @@ void printMesoTable(std::ostream& out, const MesoTableArgs& args) {
         const auto t0 = std::chrono::steady_clock::now();
         const MesoSolid solid = mesoSolidFromMesh(v, t, 64, 64, 16, 2);
         const DistanceMap dm = buildSolidDistanceMap(solid);
-        std::map<std::string, std::pair<DirectionalDistanceMap, CompressedDdm>> ddms;
+        std::map<std::string, MesoMaps> ddms; // the solid's maps (DDM compressed, triangle lists) per cone set
         for (const ConeSet cones : {ConeSet::all(), ConeSet{4, 1, false, false}, ConeSet{8, 1, false, false}}) {
-            DirectionalDistanceMap dense = buildSolidDdm(solid, cones);
-            CompressedDdm c = compressDdm(dense, 4);
-            ddms.emplace(cones.name(), std::make_pair(std::move(dense), std::move(c)));
+            MesoMapOptions o;
+            o.cones = cones;
+            o.distance = false;
+            ddms.emplace(cones.name(), buildMesoSolidMaps(solid, o));
         }
         const double buildS = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         const MesoCamera cam = tableCamera(64, 16);
@@ -456,18 +457,24 @@ void printMesoTable(std::ostream& out, const MesoTableArgs& args) {
             pictures.push_back({"distance map, eps 0.02", std::move(st)});
         }
         for (const auto& [name, maps] : ddms) {
-            const CompressedDdm& c = maps.second;
-            const std::size_t triBytes = t.size() * 36; // 3 float3 per triangle, as a renderer would store them
+            const CompressedDdm& c = maps.ddm;
+            const std::size_t triBytes = solid.bytes(); // the triangle lists as the GPU holds them
             for (int rule : {1, 0}) {
+                // The GPU's marcher (float), the renderer's loop: kern::dmMesoMarchDdmSolid.
                 Stats st = measure(
-                    px, [&](const glm::dvec3& o, const glm::dvec3& d) { return marchDdmSolid(CompressedDdmView{&c}, c.cones, solid, o, d, 1024, rule); },
+                    px,
+                    [&](const glm::dvec3& o, const glm::dvec3& d) { return marchDdmSolid<float>(CompressedDdmView{&c}, c.cones, solid, o, d, 1024, rule); },
                     args.minSeconds);
+                MesoTechnique tq;
+                tq.iterations = 1024;
+                tq.exitRule = rule;
+                if (ctx) st.gpu = gpuFrameMs(*ctx, cam, maps, tq, args.gpuFrames);
                 const std::string label = (name == "isotropic" ? "conservative isotropic" : "DDM " + name.substr(0, 3)) + " + triangles" +
                                           (rule == 0 ? " (paper's t+d)" : "");
-                printRow(out, csv, "beads", label, st, maps.first.bytes() + triBytes, c.bytes() + triBytes);
+                printRow(out, csv, "beads", label, st, maps.denseDdmBytes + triBytes, c.bytes() + triBytes);
                 if (rule == 1) pictures.push_back({label, std::move(st)});
             }
-            compressionRow(compression, "beads", name, maps.first.bytes(), c);
+            compressionRow(compression, "beads", name, maps.denseDdmBytes, c);
         }
         if (!args.images.empty()) {
             std::filesystem::create_directories(args.images);
@@ -475,7 +482,8 @@ void printMesoTable(std::ostream& out, const MesoTableArgs& args) {
             writePicture(path, cam, pictures);
             pictureNote(out, path, pictures);
         }
-        out << "(beads: CPU in double, exact triangle tests where the DDM is 0; the GPU renderer draws height fields)\n\n";
+        out << "(beads: exact triangle tests where the DDM is 0, in float as on the GPU; memory with the triangle lists, "
+            << solid.bytes() / 1024 << " KiB)\n\n";
     }
     std::ostringstream sparseGoal;
     {

@@ -61,6 +61,18 @@ int renderMesoCommand(const RenderArgs& a, const nlohmann::json& j) {
             ++covered[im.part[i]];
         }
     const char* methods[] = {"distance map", "DDM", "relief", "POM"};
+    const auto built = [](const MesoMaps& m) {
+        std::string list;
+        const auto add = [&](bool has, const std::string& what) {
+            if (has) list += (list.empty() ? "" : ", ") + what;
+        };
+        add(!m.field.h.empty(), "heights");
+        add(!m.distance.d.empty(), "distance map");
+        add(!m.ddm.grid.empty(), "DDM");
+        add(!m.quadrics.q.empty(), "quadrics");
+        add(m.isSolid(), "triangle lists " + std::to_string(m.solid.bytes() >> 10) + " KiB");
+        return list;
+    };
     std::cout << "mesostructure scene '" << s.name << "' on " << ctx->deviceName()
               << (o.base ? "; on '" + s.base->mesh + "' (" + std::to_string(o.base->triangleCount()) + " triangles)" : "") << "\n";
     for (std::size_t i = 0; i < parts.size(); ++i) {
@@ -70,13 +82,18 @@ int renderMesoCommand(const RenderArgs& a, const nlohmann::json& j) {
         std::cout << "  " << (parts.size() > 1 ? d.key + (d.material.empty() ? " (the other faces)" : " (material '" + d.material + "')") + ", " +
                                                      std::to_string(parts[i].triangles) + " triangles: "
                                                : std::string())
+                  << (m.isSolid() ? "mesh " + std::to_string(m.solid.triangles.size()) + " triangles in " + std::to_string(m.solid.width) + " x " +
+                                        std::to_string(m.solid.height) + " x " + std::to_string(m.solid.layers) + " voxels, " +
+                                        fixed(100 * m.solid.solidShare(), 1) + " % solid: "
+                                  : "")
                   << methods[static_cast<int>(d.technique.method)]
-                  << (d.technique.method == MesoMethod::Ddm ? (d.technique.quadrics ? " + quadric, cones " + d.cones.name() : ", cones " + d.cones.name()) : "")
+                  << (d.technique.method == MesoMethod::Ddm
+                          ? (m.isSolid() ? " + triangles, cones " : d.technique.quadrics ? " + quadric, cones " : ", cones ") + d.cones.name()
+                          : "")
                   << (d.shadows ? ", self-shadowing" : "")
                   << (l.albedo ? ", albedo " + std::to_string(l.albedo->width()) + " x " + std::to_string(l.albedo->height()) + (l.albedo->levels() > 1 ? " with mips" : "") : "")
                   << (l.normalMap ? ", normal map " + std::to_string(l.normalMap->width()) + " x " + std::to_string(l.normalMap->height()) + (d.normalsFromHeight ? " from the heights" : "") : "")
-                  << "; maps built: " << (m.field.h.empty() ? "" : "heights") << (m.distance.d.empty() ? "" : ", distance map")
-                  << (m.ddm.grid.empty() ? "" : ", DDM") << (m.quadrics.q.empty() ? "" : ", quadrics") << "; mean iterations "
+                  << "; maps built: " << built(m) << "; mean iterations "
                   << fixed(covered[i] ? iterations[i] / static_cast<double>(covered[i]) : 0.0, 2) << " over " << covered[i] << " pixels\n";
     }
     std::cout << "  " << im.width << " x " << im.height << ": GPU time " << fixed(im.gpuMs, 3) << " ms (median of " << im.frames << " frames)"

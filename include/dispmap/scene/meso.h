@@ -32,6 +32,14 @@
 // slopes: white's depth (slab depth / layers) over the tile's width (`tile` on the plane, the
 // base's mean tile width on a base).
 //
+// Non-height-field detail: "mesh": a closed OBJ mesh (beads, rings, chain mail) in place of
+// "height" / "function", voxelised into size x size x layers voxels (meso/solid.h) and marched
+// by the DDM with exact triangles (technique "ddm" only; shaded by its corners' normals, no
+// "depth" or "normals"). "meshTile": {"corner": [x, y, z], "size": s} puts the mesh's point
+// `corner` at the tile's corner on the floor, s mesh units a tile, so the mesh may cross the
+// tile's sides (chain mail: a ring through the next tile's); without it the mesh's bounding
+// box is fitted to the tile.
+//
 // Several mesostructures: on a base, "mesostructure" may be an array of such objects, each with
 // a "material" (an OBJ usemtl name of the base mesh; at most one entry without it covers the
 // faces no other claims). The scene's keys are shared; an entry may give its own "repeat" and
@@ -64,6 +72,7 @@ struct MesoSceneDesc {
     std::string name;
     std::string heightImage;        ///< image path (resolved against the scene's folder); empty: the function
     std::string mesh;               ///< "mesh": a closed OBJ mesh, non-height-field detail (meso/solid.h); empty: a height field
+    std::optional<MesoSolidTile> meshTile; ///< "meshTile": where the mesh lies in the tile; none: its bounding box fitted
     std::string function = "grating";
     std::string albedoImage;        ///< colour image path (resolved); empty: the checker
     std::string normalsImage;       ///< normal map path (resolved); empty: none, or from the heights
@@ -357,7 +366,7 @@ inline void parseMesoPart(const nlohmann::json& m, const std::string& baseDir, M
     const std::string& where = s.key;
     const auto fail = [&](const std::string& why) { return ArgumentError(name + ": " + why); };
     mesoKeys(m, name, where,
-             {"material", "height", "function", "mesh", "size", "layers", "depth", "cones", "block", "albedo", "normals", "normalScale",
+             {"material", "height", "function", "mesh", "meshTile", "size", "layers", "depth", "cones", "block", "albedo", "normals", "normalScale",
               "normalGreen", "repeat", "slab"});
     // Its own tile size on the base and slab depth, in place of the scene's.
     if (m.contains("repeat")) {
@@ -392,6 +401,17 @@ inline void parseMesoPart(const nlohmann::json& m, const std::string& baseDir, M
         if (s.technique.method != MesoMethod::Ddm)
             throw fail("'" + where + ".mesh' (non-height-field detail) is marched by the DDM: 'effects.technique' must be \"ddm\"");
         s.mesh = path("mesh");
+    }
+    if (m.contains("meshTile")) {
+        if (s.mesh.empty()) throw fail("'" + where + ".meshTile' without '" + where + ".mesh'");
+        const nlohmann::json& mt = m["meshTile"];
+        mesoKeys(mt, name, where + ".meshTile", {"corner", "size"});
+        if (!mt.contains("corner") || !mt.contains("size")) throw fail("'" + where + ".meshTile' needs 'corner' [x, y, z] and 'size'");
+        MesoSolidTile tile;
+        tile.corner = mesoVec3(mt, "corner", tile.corner, name, where + ".meshTile.");
+        tile.size = mesoNumber(mt, "size", tile.size, name, where + ".meshTile.");
+        if (!(tile.size > 0) || !std::isfinite(tile.size)) throw fail("'" + where + ".meshTile.size' must be > 0 (mesh units a tile)");
+        s.meshTile = tile;
     }
     if (m.contains("albedo")) s.albedoImage = path("albedo");
     if (m.contains("normals")) {
@@ -578,7 +598,9 @@ inline MesoMaps buildMesoSceneMaps(const MesoSceneDesc& s) {
         check(s.size, s.size);
         const TriangleSoup soup = readObjTriangles(s.mesh);
         try {
-            return buildMesoSolidMaps(mesoSolidFromMesh(soup.positions, soup.triangles, s.size, s.size, s.layers, kMesoSceneSolidSub), o);
+            return buildMesoSolidMaps(s.meshTile ? mesoSolidFromMesh(soup.positions, soup.triangles, s.size, s.size, s.layers, *s.meshTile, kMesoSceneSolidSub)
+                                                 : mesoSolidFromMesh(soup.positions, soup.triangles, s.size, s.size, s.layers, kMesoSceneSolidSub),
+                                      o);
         } catch (const ArgumentError& e) {
             throw ArgumentError(s.name + ": '" + s.key + ".mesh': " + e.what());
         }
