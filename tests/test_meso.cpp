@@ -712,15 +712,13 @@ TEST_CASE("the solid's march in float (the GPU's) finds the double reference's t
         const double err = h.hit ? std::abs(h.t - ref.t) / std::max(ref.t, 16.0) : 0.0;
         worst = std::max(worst, err);
         agree += err <= 1e-5 ? 1 : 0;
-        if (h.entry >= 0) {
+        if (h.triangle >= 0) {
             ++triangleHits;
-            // The hit lies on the entry's triangle (a + u e1 + v e2 in its voxel's frame).
-            const MesoSolidEntry& e = s.entries[static_cast<std::size_t>(h.entry)];
-            const glm::dvec3 p = glm::dvec3(e.voxel) + glm::dvec3(s.entryRow(static_cast<std::size_t>(h.entry), 0)) +
-                                 h.uv.x * glm::dvec3(s.entryRow(static_cast<std::size_t>(h.entry), 1)) +
-                                 h.uv.y * glm::dvec3(s.entryRow(static_cast<std::size_t>(h.entry), 2));
+            // The hit lies on its triangle (a + u e1 + v e2), or on a copy of it a whole number
+            // of tiles away: compare modulo the tile.
+            const auto tri = static_cast<std::size_t>(h.triangle);
+            const glm::dvec3 p = glm::dvec3(s.triangleRow(tri, 0)) + h.uv.x * glm::dvec3(s.triangleRow(tri, 1)) + h.uv.y * glm::dvec3(s.triangleRow(tri, 2));
             const glm::dvec3 q = of + h.t * df;
-            // The entry's voxel may be a tile away from the ray's: compare modulo the tile.
             const glm::dvec3 gap = q - p;
             CHECK(std::abs(gap.x - 16 * std::round(gap.x / 16)) < 1e-3);
             CHECK(std::abs(gap.y - 16 * std::round(gap.y / 16)) < 1e-3);
@@ -741,13 +739,27 @@ TEST_CASE("the solid's march in float (the GPU's) finds the double reference's t
 
 TEST_CASE("the solid's corner normals survive the GPU's packing; voxel normals reach the world", "[meso][solid]") {
     const MesoSolid s = fourBeads();
-    const std::vector<glm::uvec4> rows = packSolidEntries(s);
-    REQUIRE(rows.size() == 3 * s.entries.size());
+    const PackedSolid packed = packSolid(s);
+    const std::vector<glm::uvec4>& rows = packed.triangles;
+    REQUIRE(rows.size() == 3 * s.triangles.size());
+    // The lists: each voxel's range indexes the lists themselves; each entry's word names its
+    // triangle and the tile of the voxel it was listed from.
+    REQUIRE(packed.lists.size() == s.entryStart.size() + s.entries.size());
+    CHECK(packed.lists.front() == s.entryStart.size());
+    CHECK(packed.lists[s.entryStart.size() - 1] == packed.lists.size());
+    for (std::size_t e = 0; e < s.entries.size(); ++e) {
+        const std::uint32_t w = packed.lists[s.entryStart.size() + e];
+        const MesoSolidEntry& en = s.entries[e];
+        CHECK(static_cast<int>(w & 0xffffffu) == en.triangle);
+        CHECK(static_cast<int>((w >> 24) & 15u) - 8 == kern::dmFloorDiv(en.voxel.x, s.width));
+        CHECK(static_cast<int>(w >> 28) - 8 == kern::dmFloorDiv(en.voxel.y, s.height));
+    }
+    CHECK(s.bytes() == 4 * packed.lists.size() + 16 * rows.size());
     double worst = 0;
-    for (std::size_t e = 0; e < s.entries.size(); ++e)
+    for (std::size_t e = 0; e < s.triangles.size(); ++e)
         for (int part = 0; part < 3; ++part) {
             const glm::uvec4& r = rows[3 * e + static_cast<std::size_t>(part)];
-            const glm::vec3 row(s.entryRow(e, part));
+            const glm::vec3 row(s.triangleRow(e, part));
             CHECK(glm::uintBitsToFloat(r.x) == row.x);
             CHECK(glm::uintBitsToFloat(r.z) == row.z);
             const glm::dvec3 n = kern::dmOctDecode(kern::dmUnpackSnorm2x16(r.w, 32767.0));
@@ -755,8 +767,7 @@ TEST_CASE("the solid's corner normals survive the GPU's packing; voxel normals r
             const auto lo = static_cast<std::int16_t>(r.w & 0xffffu), hi = static_cast<std::int16_t>(r.w >> 16);
             CHECK(kern::dmUnpackSnorm2x16(r.w, 32767.0f) ==
                   glm::vec2(static_cast<float>(std::max(-1.0, lo / 32767.0)), static_cast<float>(std::max(-1.0, hi / 32767.0))));
-            const auto& tri = s.triangles[static_cast<std::size_t>(s.entries[e].triangle)];
-            worst = std::max(worst, glm::length(n - s.normals[static_cast<std::size_t>(tri[static_cast<std::size_t>(part)])]));
+            worst = std::max(worst, glm::length(n - s.normals[static_cast<std::size_t>(s.triangles[e][static_cast<std::size_t>(part)])]));
         }
     // snorm16 of the octahedral coordinates: steps of 2^-15, at most ~3 of them in the sphere's
     // direction after the fold (Cigolle et al. Table 1: 16-bit oct, max error 0.005 degrees).
@@ -843,7 +854,7 @@ TEST_CASE("chain mail: a mesh that crosses the tile's side links the next tile's
         REQUIRE(h.hit == ref.hit);
         if (h.hit) REQUIRE(h.t == Approx(ref.t).margin(1e-9)); // both in double
         ++same;
-        rings += h.entry >= 0 ? 1 : 0;
+        rings += h.triangle >= 0 ? 1 : 0;
     }
     CHECK(same == rays);
     CHECK(rings > rays / 4);
@@ -912,7 +923,7 @@ TEST_CASE("a scene's mesh mesostructure: chain mail placed in its tile, and clea
     const auto inDir = [&](const std::string& json) { return parseMesoScene(nlohmann::json::parse(json), "c.json", dir.path.string()); };
     const MesoMaps sheet = buildMesoSceneMaps(inDir(R"({"mesostructure": {"mesh": "open.obj", "size": 8, "layers": 8}})"));
     const MesoSolidHit h = marchDdmSolid(CompressedDdmView{&sheet.ddm}, sheet.ddm.cones, sheet.solid, {2, 2, 8}, {0, 0, -1});
-    CHECK(h.entry >= 0);
+    CHECK(h.triangle == 0);
     // z = (x + y) / 2 in mesh units, 8 voxels a unit: voxel (2, 2) is (0.25, 0.25), z 0.25 units = 2 voxels.
     CHECK(h.t == Approx(8.0 - 2.0).margin(1e-9));
 }

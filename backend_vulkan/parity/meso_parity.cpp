@@ -309,7 +309,7 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
             res.kernel = row->name;
             res.precision = "float";
             res.contract = isSolid ? "march: div" : "march: sqrt, div";
-            res.unit = isSolid ? "t: ULP max(|t|,1); hit,n,tri" : "t: ULP max(|t|,1); hit, n"; // bit-exact: these and the bits of t (a zero t by value)
+            res.unit = isSolid ? "t ULP max(|t|,1); hit,n,tri" : "t: ULP max(|t|,1); hit, n"; // bit-exact: these and the bits of t (a zero t by value)
             res.bound = strict ? 0.0 : kMesoFusedBound;
             res.inputs = rays.size();
             res.gpuSeconds = ctx.dispatch(pipe, bufs, glm::uvec3(groupsX, groupsY, 1), &push, sizeof push);
@@ -319,12 +319,12 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
             for (std::size_t i = 0; i < rays.size(); ++i) {
                 const glm::vec3 o(rays[i].o), d(rays[i].d);
                 MesoHit cpu;
-                int entry = -1;
+                int triangle = -1;
                 if (isSolid) {
                     const MesoSolidHit h = marchDdmSolid<float>(CompressedDdmView{&maps.ddm}, maps.ddm.cones, maps.solid, glm::dvec3(o),
                                                                 glm::dvec3(d), tq.iterations, tq.exitRule);
                     cpu = h;
-                    entry = h.entry;
+                    triangle = h.triangle;
                 } else {
                     cpu = marchMeso<float>(maps, tq, glm::dvec3(o), glm::dvec3(d));
                 }
@@ -332,7 +332,7 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
                 float tg;
                 std::memcpy(&tg, &gpu[i].y, sizeof tg);
                 const bool sameDecision = (gpu[i].x != 0) == cpu.hit && static_cast<int>(gpu[i].z) == cpu.iterations &&
-                                          static_cast<int>(gpu[i].w) - 1 == entry;
+                                          static_cast<int>(gpu[i].w) - 1 == triangle;
                 // A zero t is compared by value: a ray starting on the floor z = 0 gets
                 // dmPlaneHit = (0 - 0) / d.z = -0 in C++, and Mesa folds 0 - x into -x (+0 then),
                 // a signed-zero rewrite NoContraction does not stop. The hit point is the same.
@@ -352,7 +352,7 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
                     res.maxUlp = err;
                     std::ostringstream s;
                     s << std::setprecision(9) << "o=" << vec(o) << " d=" << vec(d) << ": cpu hit " << cpu.hit << " t " << tc << " n "
-                      << cpu.iterations << " entry " << entry << ", gpu hit " << gpu[i].x << " t " << tg << " n " << gpu[i].z << " entry "
+                      << cpu.iterations << " triangle " << triangle << ", gpu hit " << gpu[i].x << " t " << tg << " n " << gpu[i].z << " triangle "
                       << static_cast<int>(gpu[i].w) - 1 << std::hexfloat << " (" << tc << " vs " << tg << ")";
                     res.worstInput = s.str();
                 }

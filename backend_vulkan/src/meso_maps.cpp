@@ -48,10 +48,11 @@ template <class T> Buffer uploadVector(Context& ctx, const std::vector<T>& v, st
 MesoBuffers uploadMesoMaps(Context& ctx, const MesoMaps& maps) {
     (void)mesoGpuSize(maps); // validates
     std::size_t bytes = 0;
+    const PackedSolid solid = maps.isSolid() ? packSolid(maps.solid) : PackedSolid{};
     MesoBuffers b{uploadVector(ctx, maps.field.h, bytes), uploadVector(ctx, maps.distance.d, bytes),
                   uploadVector(ctx, maps.ddm.grid, bytes), uploadVector(ctx, maps.ddm.atlas, bytes),
-                  uploadVector(ctx, maps.quadrics.q, bytes), uploadVector(ctx, maps.isSolid() ? maps.solid.entryStart : std::vector<std::uint32_t>{}, bytes),
-                  uploadVector(ctx, packSolidEntries(maps.solid), bytes), 0};
+                  uploadVector(ctx, maps.quadrics.q, bytes), uploadVector(ctx, solid.lists, bytes),
+                  uploadVector(ctx, solid.triangles, bytes), 0};
     b.bytes = bytes;
     return b;
 }

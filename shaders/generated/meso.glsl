@@ -166,6 +166,11 @@ DM_TFUNC void dmVoxelQuadric(rvec4 qa, rvec4 qb, rvec4 qc, int k, DM_OUT(rvec4) 
     }
 }
 
+// floor(i / n) for n > 0 and any i (C++ and GLSL round a negative quotient towards 0).
+DM_FUNC int dmFloorDiv(int i, int n) {
+    return i >= 0 ? i / n : -((-1 - i) / n) - 1;
+}
+
 // --- Triangles (non-height-field detail, meso/solid.h) ---------------------------------------
 // Moller & Trumbore (1997): the crossing of o + t d with the triangle a, a + e1, a + e2 (either
 // face) for t in [t0, tBest]. On a hit tBest becomes its t and uv its barycentric (u, v) (the
@@ -198,7 +203,7 @@ DM_TFUNC bool dmRayTriangle(rvec3 o, rvec3 d, rvec3 a, rvec3 e1, rvec3 e2, real 
 }
 
 // The unit vector whose octahedral encoding is e in [-1, 1]^2 (Cigolle et al. 2014, "A survey
-// of efficient representations for independent unit vectors"; packSolidEntries encodes).
+// of efficient representations for independent unit vectors"; packSolid encodes).
 DM_TFUNC rvec3 dmOctDecode(rvec2 e) {
     rvec3 n = rvec3(e.x, e.y, (real(1) - abs(e.x)) - abs(e.y));
     if (n.z < real(0)) {
@@ -217,7 +222,7 @@ DM_TFUNC rvec2 dmUnpackSnorm2x16(uint w, real unit) {
 }
 
 // The shading normal at barycentric uv of a triangle whose corners' unit normals are n0, n1, n2
-// (octahedral, two snorm16 a word: packSolidEntries) mixed by uv (Phong's interpolation), unit
+// (octahedral, two snorm16 a word: packSolid) mixed by uv (Phong's interpolation), unit
 // length; the first corner's where they cancel.
 DM_TFUNC rvec3 dmSolidCornerNormal(uint n0, uint n1, uint n2, rvec2 uv) {
     real unit = real(32767);
@@ -630,7 +635,7 @@ DM_TFUNC void dmVoxelQuadric(rvec4 qa, rvec4 qb, rvec4 qc, int k, DM_OUT(rvec4) 
         vc = rvec4(real(0), lo + real(1) <= qc.z ? real(1) : real(-1), real(0), real(0));
     }
 }
-#line 183 "include/dispmap/kernels/meso.h"
+#line 188 "include/dispmap/kernels/meso.h"
 
 // --- Triangles (non-height-field detail, meso/solid.h) ---------------------------------------
 // Moller & Trumbore (1997): the crossing of o + t d with the triangle a, a + e1, a + e2 (either
@@ -662,10 +667,10 @@ DM_TFUNC bool dmRayTriangle(rvec3 o, rvec3 d, rvec3 a, rvec3 e1, rvec3 e2, real 
     uv = rvec2(u, v);
     return true;
 }
-#line 214 "include/dispmap/kernels/meso.h"
+#line 219 "include/dispmap/kernels/meso.h"
 
 // The unit vector whose octahedral encoding is e in [-1, 1]^2 (Cigolle et al. 2014, "A survey
-// of efficient representations for independent unit vectors"; packSolidEntries encodes).
+// of efficient representations for independent unit vectors"; packSolid encodes).
 DM_TFUNC rvec3 dmOctDecode(rvec2 e) {
     rvec3 n = rvec3(e.x, e.y, (real(1) - abs(e.x)) - abs(e.y));
     if (n.z < real(0)) {
@@ -674,7 +679,7 @@ DM_TFUNC rvec3 dmOctDecode(rvec2 e) {
     }
     return n * (real(1) / sqrt(dmDot3(n, n)));
 }
-#line 225 "include/dispmap/kernels/meso.h"
+#line 230 "include/dispmap/kernels/meso.h"
 
 // GLSL's unpackSnorm2x16 (unit 32767), spelled out so that both sides round alike: the low
 // and the high 16 bits as signed integers over unit, clamped to [-1, 1].
@@ -683,10 +688,10 @@ DM_TFUNC rvec2 dmUnpackSnorm2x16(uint w, real unit) {
     int hi = int(w) >> 16;
     return clamp(rvec2(real(lo), real(hi)) / unit, real(-1), real(1));
 }
-#line 233 "include/dispmap/kernels/meso.h"
+#line 238 "include/dispmap/kernels/meso.h"
 
 // The shading normal at barycentric uv of a triangle whose corners' unit normals are n0, n1, n2
-// (octahedral, two snorm16 a word: packSolidEntries) mixed by uv (Phong's interpolation), unit
+// (octahedral, two snorm16 a word: packSolid) mixed by uv (Phong's interpolation), unit
 // length; the first corner's where they cancel.
 DM_TFUNC rvec3 dmSolidCornerNormal(uint n0, uint n1, uint n2, rvec2 uv) {
     real unit = real(32767);
@@ -695,7 +700,7 @@ DM_TFUNC rvec3 dmSolidCornerNormal(uint n0, uint n1, uint n2, rvec2 uv) {
     real l = dmDot3(n, n);
     return l > real(0) ? n * (real(1) / sqrt(l)) : a;
 }
-#line 244 "include/dispmap/kernels/meso.h"
+#line 249 "include/dispmap/kernels/meso.h"
 
 // --- Voxel traversal (Algorithm 3.3, as an exact DDA) ---------------------------------------
 // The voxel containing p; a coordinate on a voxel wall belongs to the voxel the ray d enters.
@@ -713,7 +718,7 @@ DM_TFUNC ivec3 dmVoxelAt(rvec3 p, rvec3 d) {
     }
     return v;
 }
-#line 261 "include/dispmap/kernels/meso.h"
+#line 266 "include/dispmap/kernels/meso.h"
 
 // Parameter where o + t d leaves voxel v, and the axis (0, 1, 2) of the wall it crosses.
 DM_TFUNC real dmVoxelExit(rvec3 o, rvec3 d, ivec3 v, DM_OUT(int) axis) {
@@ -733,7 +738,7 @@ DM_TFUNC real dmVoxelExit(rvec3 o, rvec3 d, ivec3 v, DM_OUT(int) axis) {
     }
     return t;
 }
-#line 280 "include/dispmap/kernels/meso.h"
+#line 285 "include/dispmap/kernels/meso.h"
 
 // The neighbour of v across the wall `axis` in the direction of d.
 DM_TFUNC ivec3 dmVoxelStep(ivec3 v, rvec3 d, int axis) {
@@ -747,13 +752,13 @@ DM_TFUNC ivec3 dmVoxelStep(ivec3 v, rvec3 d, int axis) {
     }
     return w;
 }
-#line 303 "include/dispmap/kernels/meso.h"
+#line 308 "include/dispmap/kernels/meso.h"
 
 // Parameter where o + t d reaches the plane z = zPlane (d.z != 0).
 DM_TFUNC real dmPlaneHit(rvec3 o, rvec3 d, real zPlane) {
     return (zPlane - o.z) / d.z;
 }
-#line 308 "include/dispmap/kernels/meso.h"
+#line 313 "include/dispmap/kernels/meso.h"
 
 // --- Direction cones (Mehra & Kumar §3.1) ---------------------------------------------------
 // Cone of a voxel-space direction d among m x n cones per hemisphere: azimuth theta (from +x
@@ -783,7 +788,7 @@ DM_TFUNC int dmConeIndex(rvec3 d, int m, int n) {
     int hemisphere = d.z > real(0) ? 1 : 0;
     return (hemisphere * n + band) * m + sector;
 }
-#line 337 "include/dispmap/kernels/meso.h"
+#line 342 "include/dispmap/kernels/meso.h"
 
 // --- Donnelly's distance map ----------------------------------------------------------------
 // Tangent-space direction (x along the texture's u, y along v, z along the normal, any
@@ -794,7 +799,7 @@ DM_TFUNC rvec3 dmTangentToVoxel(rvec3 t, rvec3 voxelsPerUnit) {
     rvec3 v = rvec3(t.x * voxelsPerUnit.x, t.y * voxelsPerUnit.y, t.z * voxelsPerUnit.z);
     return v * (real(1) / sqrt(dmDot3(v, v)));
 }
-#line 347 "include/dispmap/kernels/meso.h"
+#line 352 "include/dispmap/kernels/meso.h"
 
 // Samples of Donnelly's map sit at (i, j, k + 1/2): texel grid points, layer centres. The
 // sample cell of p (its lowest sample (i, j, k), unwrapped) and the trilinear fractions f;
@@ -807,7 +812,7 @@ DM_TFUNC ivec3 dmDistanceSampleCell(rvec3 p, int L, DM_OUT(rvec3) f) {
     f = rvec3(p.x - fx, p.y - fy, zc - real(k));
     return ivec3(int(fx), int(fy), k);
 }
-#line 359 "include/dispmap/kernels/meso.h"
+#line 364 "include/dispmap/kernels/meso.h"
 
 // Trilinear interpolation: lo and hi the samples of layers k and k + 1 in dmBilerp's order
 // ((i, j), (i+1, j), (i+1, j+1), (i, j+1)).
@@ -815,7 +820,7 @@ DM_TFUNC real dmTrilerp(rvec4 lo, rvec4 hi, rvec3 f) {
     rvec2 xy = rvec2(f.x, f.y);
     return dmBilerp(lo, xy) * (real(1) - f.z) + dmBilerp(hi, xy) * f.z;
 }
-#line 366 "include/dispmap/kernels/meso.h"
+#line 371 "include/dispmap/kernels/meso.h"
 
 // One sphere-tracing step (Hart 1996; Donnelly §8.3) with the interpolated distance `dist`
 // at o + t d: returns 1 when converged (dist <= eps; a fixed iteration count passes eps < 0),
@@ -836,7 +841,7 @@ DM_TFUNC int dmSphereTraceStep(DM_INOUT(real) t, real dist, real eps, rvec3 o, r
     }
     return 0;
 }
-#line 386 "include/dispmap/kernels/meso.h"
+#line 391 "include/dispmap/kernels/meso.h"
 
 // --- Conservative (directional) distance maps -----------------------------------------------
 // One step of Algorithm 3.1 for a ray at o + t d in voxel v (inside the slab). `dist` is v's
@@ -872,7 +877,7 @@ DM_TFUNC int dmDdmStep(DM_INOUT(real) t, DM_INOUT(ivec3) v, real dist, rvec4 qa,
     v = w;
     return 0;
 }
-#line 421 "include/dispmap/kernels/meso.h"
+#line 426 "include/dispmap/kernels/meso.h"
 
 // --- Relief mapping and parallax occlusion mapping (height-field baselines) ----------------
 // Texel cell of xy (unwrapped) and the bilinear fraction inside it.
@@ -881,13 +886,13 @@ DM_TFUNC ivec2 dmHeightCell(rvec2 xy, DM_OUT(rvec2) f) {
     f = xy - b;
     return ivec2(int(b.x), int(b.y));
 }
-#line 429 "include/dispmap/kernels/meso.h"
+#line 434 "include/dispmap/kernels/meso.h"
 
 // Height of p above the surface, given the heights h of its cell (dmBilerp's order) and f.
 DM_TFUNC real dmHeightAbove(rvec3 p, rvec4 h, rvec2 f) {
     return p.z - dmBilerp(h, f);
 }
-#line 434 "include/dispmap/kernels/meso.h"
+#line 439 "include/dispmap/kernels/meso.h"
 
 // Linear search of relief mapping and POM: the bracket (t_prev, t) advances by dt while the
 // sample at t is above the surface; returns true when `above` (at bracket.y) is <= 0.
@@ -898,7 +903,7 @@ DM_TFUNC bool dmLinearSearchStep(DM_INOUT(rvec2) bracket, real dt, real above) {
     bracket = rvec2(bracket.y, bracket.y + dt);
     return false;
 }
-#line 444 "include/dispmap/kernels/meso.h"
+#line 449 "include/dispmap/kernels/meso.h"
 
 // Relief mapping's binary search: given `above` at the bracket's midpoint, keep the half
 // that still contains the crossing (the first end above, the second at or below).
@@ -906,7 +911,7 @@ DM_TFUNC rvec2 dmBisectStep(rvec2 bracket, real above) {
     real mid = real(0.5) * (bracket.x + bracket.y);
     return above <= real(0) ? rvec2(bracket.x, mid) : rvec2(mid, bracket.y);
 }
-#line 451 "include/dispmap/kernels/meso.h"
+#line 456 "include/dispmap/kernels/meso.h"
 
 // POM's final step (Tatarchuk 2006): where the segment between the last sample above
 // (height aboveA > 0 at bracket.x) and the first below (aboveB <= 0 at bracket.y) crosses.

@@ -10,7 +10,7 @@
 #define rvec3 vec3
 #define rvec4 vec4
 #define rmat3 mat3
-#line 38 "include/dispmap/kernels/meso_march.h"
+#line 39 "include/dispmap/kernels/meso_march.h"
 // Donnelly's sphere tracing: `iterations` steps of the trilinearly read distance, or fewer
 // when it falls to eps or below (dmSphereTraceStep). The hit is where the last step ends; a
 // ray that rose through the top is a miss.
@@ -76,16 +76,18 @@ DM_TFUNC bool dmMesoMarchDdm(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int cone
 
 // Algorithm 3.1 over a solid (non-height-field detail, meso/solid.h): the march of
 // dmMesoMarchDdm where a voxel whose distance is 0 tests the ray exactly against the triangles
-// listed for it (each a copy placed next to the voxel: no periodic shift is searched) and
-// moves on to the next voxel when none is crossed inside it. The floor z < 0 is solid. Writes
-// the entry whose triangle was hit (-1: the floor, or running out of iterations) and the
+// listed for it and moves on to the next voxel when none is crossed inside it. An entry names
+// its triangle and the tile of the copy next to the voxel it was listed from, so the copy next
+// to this voxel v is the triangle shifted by whole tiles (no periodic shift is searched), and
+// the test runs in v's frame (origin its lower corner) to keep float's digits. The floor z < 0
+// is solid. Writes the triangle hit (-1: the floor, or running out of iterations) and the
 // barycentric uv there; one iteration per voxel visited, whatever its triangle count.
 DM_TFUNC bool dmMesoMarchDdmSolid(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int coneN, int maxIterations, int exitRule, real tol,
-                                  DM_OUT(real) tHit, DM_OUT(int) count, DM_OUT(int) entry, DM_OUT(rvec2) uv) {
+                                  DM_OUT(real) tHit, DM_OUT(int) count, DM_OUT(int) triangle, DM_OUT(rvec2) uv) {
     int cone = dmConeIndex(d, coneM, coneN);
     bool hit = true; // until the ray leaves, as dmMesoMarchDdm
     count = 0;
-    entry = -1;
+    triangle = -1;
     uv = rvec2(real(0));
     real t = real(0);
     ivec3 v = dmVoxelAt(o, d);
@@ -107,17 +109,24 @@ DM_TFUNC bool dmMesoMarchDdmSolid(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int
             real tBest = max(dmVoxelExit(o, d, v, axis), t);
             ivec2 range = dmMesoFetchSolidRange(m, v.x, v.y, v.z);
             rvec3 ol = o - rvec3(real(v.x), real(v.y), real(v.z));
+            ivec2 tileV = ivec2(dmFloorDiv(v.x, m.width), dmFloorDiv(v.y, m.height));
             int found = -1;
             for (int e = range.x; e < range.y; ++e) {
-                rvec3 a = rvec3(dmMesoFetchSolidTriangle(m, e, 0));
-                rvec3 e1 = rvec3(dmMesoFetchSolidTriangle(m, e, 1));
-                rvec3 e2 = rvec3(dmMesoFetchSolidTriangle(m, e, 2));
+                uint w = dmMesoFetchSolidEntry(m, e);
+                int tri = int(w & 16777215u);
+                // The copy's corner in v's frame: the triangle's own corner less v moved back
+                // by the tiles between the entry's copy and v (integers: exact).
+                ivec3 back = ivec3(v.x - (tileV.x - (int((w >> 24u) & 15u) - 8)) * m.width,
+                                   v.y - (tileV.y - (int(w >> 28u) - 8)) * m.height, v.z);
+                rvec3 a = rvec3(dmMesoFetchSolidTriangle(m, tri, 0)) - rvec3(real(back.x), real(back.y), real(back.z));
+                rvec3 e1 = rvec3(dmMesoFetchSolidTriangle(m, tri, 1));
+                rvec3 e2 = rvec3(dmMesoFetchSolidTriangle(m, tri, 2));
                 if (dmRayTriangle(ol, d, a, e1, e2, t, tBest, uv)) {
-                    found = e;
+                    found = tri;
                 }
             }
             if (found >= 0) {
-                entry = found;
+                triangle = found;
                 t = tBest;
                 break;
             }

@@ -13,9 +13,10 @@
 //   +3 atlas      CompressedDdm::atlas, blocks of block^3 floats, x fastest
 //   +4 quadrics   ColumnQuadrics::q, three vec4 per column, x fastest
 //   (+5 images    the albedo's and the normal map's MesoAlbedo::words: DM_MESO_IMAGE_BINDING below)
-//   (+6 starts    a solid's MesoSolid::entryStart, uint per voxel and one more: DM_MESO_SOLID_BINDING)
-//   (+7 entries   a solid's triangle rows, three uvec4 an entry (packSolidEntries: xyz the float
-//                 bits of MesoSolid::entryRow, w one corner's unit normal, octahedral, two snorm16))
+//   (+6 lists     a solid's PackedSolid::lists: each voxel's entry range, then the entries' words:
+//                 DM_MESO_SOLID_BINDING)
+//   (+7 triangles a solid's PackedSolid::triangles: three uvec4 a triangle, xyz the float bits of
+//                 MesoSolid::triangleRow, w one corner's unit normal (octahedral, two snorm16))
 // A buffer a pipeline does not read may be a 16-byte placeholder.
 #ifndef DISPMAP_MESO_MARCH_GLSL
 #define DISPMAP_MESO_MARCH_GLSL
@@ -45,8 +46,8 @@ layout(std430, set = DM_MESO_SET, binding = DM_MESO_IMAGE_BINDING) readonly buff
 #ifndef DM_MESO_SOLID_BINDING
 #define DM_MESO_SOLID_BINDING (DM_MESO_BINDING + 6)
 #endif
-layout(std430, set = DM_MESO_SET, binding = DM_MESO_SOLID_BINDING) readonly buffer DmMesoSolidStarts { uint dmMesoSolidStarts[]; };
-layout(std430, set = DM_MESO_SET, binding = DM_MESO_SOLID_BINDING + 1) readonly buffer DmMesoSolidEntries { uvec4 dmMesoSolidEntries[]; };
+layout(std430, set = DM_MESO_SET, binding = DM_MESO_SOLID_BINDING) readonly buffer DmMesoSolidLists { uint dmMesoSolidLists[]; };
+layout(std430, set = DM_MESO_SET, binding = DM_MESO_SOLID_BINDING + 1) readonly buffer DmMesoSolidTriangles { uvec4 dmMesoSolidTriangles[]; };
 
 // The sizes of the maps (all share W x H x L) and the root tolerance
 // (mesoRootTolerance<float>(), passed by the host, never retyped here).
@@ -121,10 +122,13 @@ uint dmMesoFetchImage(DmMesoSize s, int i) {
 }
 ivec2 dmMesoFetchSolidRange(DmMesoSize s, int i, int j, int k) {
     int v = (k * s.height + dmMesoWrap(j, s.height)) * s.width + dmMesoWrap(i, s.width);
-    return ivec2(int(dmMesoSolidStarts[v]), int(dmMesoSolidStarts[v + 1]));
+    return ivec2(int(dmMesoSolidLists[v]), int(dmMesoSolidLists[v + 1]));
 }
-vec4 dmMesoFetchSolidTriangle(DmMesoSize s, int e, int part) {
-    return vec4(uintBitsToFloat(dmMesoSolidEntries[3 * e + part].xyz), 0.0);
+uint dmMesoFetchSolidEntry(DmMesoSize s, int e) {
+    return dmMesoSolidLists[e];
+}
+vec4 dmMesoFetchSolidTriangle(DmMesoSize s, int t, int part) {
+    return vec4(uintBitsToFloat(dmMesoSolidTriangles[3 * t + part].xyz), 0.0);
 }
 #include "meso_march.glsl"
 #undef DmMesoMaps
@@ -140,21 +144,22 @@ DmMesoHit dmMarchDdm(DmMesoSize s, vec3 o, vec3 d, int maxIterations, bool quadr
     r.hit = dmMesoMarchDdm(s, o, d, s.coneM, s.coneN, maxIterations, quadrics, exitRule, s.tol, r.t, r.iterations);
     return r;
 }
-// A solid's march (DDM with the triangles of its 0 voxels); entry and uv: the triangle hit.
+// A solid's march (DDM with the triangles of its 0 voxels); triangle and uv: the triangle hit.
 struct DmMesoSolidHit {
     DmMesoHit h;
-    int entry;
+    int triangle;
     vec2 uv;
 };
 DmMesoSolidHit dmMarchDdmSolid(DmMesoSize s, vec3 o, vec3 d, int maxIterations, int exitRule) {
     DmMesoSolidHit r;
-    r.h.hit = dmMesoMarchDdmSolid(s, o, d, s.coneM, s.coneN, maxIterations, exitRule, s.tol, r.h.t, r.h.iterations, r.entry, r.uv);
+    r.h.hit = dmMesoMarchDdmSolid(s, o, d, s.coneM, s.coneN, maxIterations, exitRule, s.tol, r.h.t, r.h.iterations, r.triangle, r.uv);
     return r;
 }
 // The voxel-space shading normal at a solid hit: the corners' normals (the rows' w) mixed by the
 // barycentric uv (kern::dmSolidCornerNormal).
-vec3 dmMesoSolidNormal(int entry, vec2 uv) {
-    return dmSolidCornerNormal(dmMesoSolidEntries[3 * entry].w, dmMesoSolidEntries[3 * entry + 1].w, dmMesoSolidEntries[3 * entry + 2].w, uv);
+vec3 dmMesoSolidNormal(int triangle, vec2 uv) {
+    return dmSolidCornerNormal(dmMesoSolidTriangles[3 * triangle].w, dmMesoSolidTriangles[3 * triangle + 1].w,
+                               dmMesoSolidTriangles[3 * triangle + 2].w, uv);
 }
 // Relief mapping (binary >= 0 bisections) or POM (binary < 0); view rays only (d.z < 0; the
 // host checks), linear >= 1.

@@ -76,7 +76,7 @@ void main() {
     vec2 uvDx = dFdx(uvEntry);
     vec2 uvDy = dFdy(uvEntry);
     DmMesoHit h;
-    int entry = -1; // the solid's triangle hit
+    int entry = -1; // the solid's triangle hit (-1: the floor, or none)
     vec2 bary = vec2(0.0);
     if (kBase != 0 && !(d.z < 0.0)) {
         // Seen from below the base (a back face): the ray leaves through the top at once.
@@ -88,7 +88,7 @@ void main() {
     } else if (kMethod == 1 && kSolid) {
         DmMesoSolidHit sh = dmMarchDdmSolid(s, o, d, kIterations, kExitRule);
         h = sh.h;
-        entry = sh.entry;
+        entry = sh.triangle;
         bary = sh.uv;
     } else if (kMethod == 1) {
         h = dmMarchDdm(s, o, d, kIterations, kQuadrics, kExitRule);

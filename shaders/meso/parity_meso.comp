@@ -1,7 +1,7 @@
 #version 450
 // CPU/GPU parity of the mesostructure marchers (shaders/meso/march.glsl against
 // include/dispmap/meso/march.h): one ray per invocation through the method the push
-// constants name; writes (hit, t bits, iterations, the solid's entry hit + 1). Runner: backend_vulkan/parity/meso_parity.cpp.
+// constants name; writes (hit, t bits, iterations, the solid's triangle hit + 1). Runner: backend_vulkan/parity/meso_parity.cpp.
 #extension GL_GOOGLE_include_directive : require
 #define DM_MESO_SET 0
 #define DM_MESO_BINDING 0
@@ -62,7 +62,7 @@ void main() {
     if (pc.method == 4) {
         DmMesoSolidHit sh = dmMarchDdmSolid(s, o, d, pc.iterations, pc.exitRule);
         h = sh.h;
-        entry = sh.entry;
+        entry = sh.triangle;
     } else if (pc.method == 0) {
         h = dmMarchDistanceMap(s, o, d, pc.iterations, pc.eps);
     } else if (pc.method == 1) {

@@ -699,7 +699,7 @@ TEST_CASE("a solid renders as the CPU's solid march, with its shadows, on the pl
     auto& ctx = dmgpu::context();
     const bool strict = dispmap::parity::strictFor(ctx, dispmap::parity::Options{});
     const MesoMaps& maps = beadMaps();
-    const std::vector<glm::uvec4> rows = dispmap::packSolidEntries(maps.solid);
+    const std::vector<glm::uvec4> rows = dispmap::packSolid(maps.solid).triangles;
     for (const bool spot : {false, true}) {
         MesoRenderOptions o = spot ? spotScene(MesoMethod::Ddm) : smallScene(MesoMethod::Ddm);
         o.technique.iterations = 256;
@@ -721,12 +721,12 @@ TEST_CASE("a solid renders as the CPU's solid march, with its shadows, on the pl
             CHECK((img.hitPoint[i].z >= 0.0f && img.hitPoint[i].z <= 16.0f)); // inside the shell
             const dispmap::MesoSolidHit h = dispmap::marchDdmSolid<float>(dispmap::CompressedDdmView{&maps.ddm}, maps.ddm.cones, maps.solid,
                                                                           glm::dvec3(img.rayOrigin[i]), glm::dvec3(img.rayDir[i]), 256, 1);
-            beads += h.entry >= 0 ? 1u : 0u;
+            beads += h.triangle >= 0 ? 1u : 0u;
             if (spot) continue; // the frame of a Spot pixel is not read back: the plane checks the shadow rays
             // meso.frag's shadow ray on the CPU: from the hit lifted along the corner normals.
-            const glm::vec3 nv = h.entry >= 0 ? dispmap::kern::dmSolidCornerNormal(rows[3 * std::size_t(h.entry)].w, rows[3 * std::size_t(h.entry) + 1].w,
-                                                                                   rows[3 * std::size_t(h.entry) + 2].w, glm::vec2(h.uv))
-                                              : glm::vec3(0, 0, 1);
+            const std::size_t tri = h.triangle >= 0 ? static_cast<std::size_t>(h.triangle) : 0;
+            const glm::vec3 nv = h.triangle >= 0 ? dispmap::kern::dmSolidCornerNormal(rows[3 * tri].w, rows[3 * tri + 1].w, rows[3 * tri + 2].w, glm::vec2(h.uv))
+                                                 : glm::vec3(0, 0, 1);
             const glm::vec3 so = glm::vec3(img.hitPoint[i]) + nv * static_cast<float>(o.shadowOffset);
             const glm::vec3 sd = dispmap::kern::dmTangentToVoxel(light, vpu);
             const dispmap::MesoSolidHit s = dispmap::marchDdmSolid<float>(dispmap::CompressedDdmView{&maps.ddm}, maps.ddm.cones, maps.solid,

@@ -181,6 +181,11 @@ DM_TFUNC void dmVoxelQuadric(rvec4 qa, rvec4 qb, rvec4 qc, int k, DM_OUT(rvec4) 
     }
 }
 
+// floor(i / n) for n > 0 and any i (C++ and GLSL round a negative quotient towards 0).
+DM_FUNC int dmFloorDiv(int i, int n) {
+    return i >= 0 ? i / n : -((-1 - i) / n) - 1;
+}
+
 // --- Triangles (non-height-field detail, meso/solid.h) ---------------------------------------
 // Moller & Trumbore (1997): the crossing of o + t d with the triangle a, a + e1, a + e2 (either
 // face) for t in [t0, tBest]. On a hit tBest becomes its t and uv its barycentric (u, v) (the
@@ -213,7 +218,7 @@ DM_TFUNC bool dmRayTriangle(rvec3 o, rvec3 d, rvec3 a, rvec3 e1, rvec3 e2, real 
 }
 
 // The unit vector whose octahedral encoding is e in [-1, 1]^2 (Cigolle et al. 2014, "A survey
-// of efficient representations for independent unit vectors"; packSolidEntries encodes).
+// of efficient representations for independent unit vectors"; packSolid encodes).
 DM_TFUNC rvec3 dmOctDecode(rvec2 e) {
     rvec3 n = rvec3(e.x, e.y, (real(1) - abs(e.x)) - abs(e.y));
     if (n.z < real(0)) {
@@ -232,7 +237,7 @@ DM_TFUNC rvec2 dmUnpackSnorm2x16(uint w, real unit) {
 }
 
 // The shading normal at barycentric uv of a triangle whose corners' unit normals are n0, n1, n2
-// (octahedral, two snorm16 a word: packSolidEntries) mixed by uv (Phong's interpolation), unit
+// (octahedral, two snorm16 a word: packSolid) mixed by uv (Phong's interpolation), unit
 // length; the first corner's where they cancel.
 DM_TFUNC rvec3 dmSolidCornerNormal(uint n0, uint n1, uint n2, rvec2 uv) {
     real unit = real(32767);

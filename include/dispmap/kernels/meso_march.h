@@ -16,9 +16,10 @@
 //                                                                  (meso/albedo.h), albedo then normal map
 //   ivec2 dmMesoFetchSolidRange(DmMesoMaps m, int i, int j, int k) a solid's entries in voxel (i, j, k)
 //                                                                  (wrapped): [x, y) (meso/solid.h)
-//   vec4  dmMesoFetchSolidTriangle(DmMesoMaps m, int e, int part)  entry e's triangle: part 0 its first
-//                                                                  corner a relative to the voxel's lower
-//                                                                  corner, 1 and 2 its edges e1, e2 (xyz)
+//   uint  dmMesoFetchSolidEntry(DmMesoMaps m, int e)               entry e: MesoSolid::entryWord
+//   vec4  dmMesoFetchSolidTriangle(DmMesoMaps m, int t, int part)  triangle t: part 0 its first corner a,
+//                                                                  1 and 2 its edges e1, e2 (xyz)
+// and DmMesoMaps holds `int width, height` (the tile's voxels) for the solid's march.
 // In GLSL DmMesoMaps is the includer's struct (march.glsl: #define DmMesoMaps DmMesoSize). In
 // C++ it is DmMesoMapsT<real>, a class template this header only declares, so the fetch calls
 // depend on the template parameter and are found at instantiation, in the includer's
@@ -100,16 +101,18 @@ DM_TFUNC bool dmMesoMarchDdm(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int cone
 
 // Algorithm 3.1 over a solid (non-height-field detail, meso/solid.h): the march of
 // dmMesoMarchDdm where a voxel whose distance is 0 tests the ray exactly against the triangles
-// listed for it (each a copy placed next to the voxel: no periodic shift is searched) and
-// moves on to the next voxel when none is crossed inside it. The floor z < 0 is solid. Writes
-// the entry whose triangle was hit (-1: the floor, or running out of iterations) and the
+// listed for it and moves on to the next voxel when none is crossed inside it. An entry names
+// its triangle and the tile of the copy next to the voxel it was listed from, so the copy next
+// to this voxel v is the triangle shifted by whole tiles (no periodic shift is searched), and
+// the test runs in v's frame (origin its lower corner) to keep float's digits. The floor z < 0
+// is solid. Writes the triangle hit (-1: the floor, or running out of iterations) and the
 // barycentric uv there; one iteration per voxel visited, whatever its triangle count.
 DM_TFUNC bool dmMesoMarchDdmSolid(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int coneN, int maxIterations, int exitRule, real tol,
-                                  DM_OUT(real) tHit, DM_OUT(int) count, DM_OUT(int) entry, DM_OUT(rvec2) uv) {
+                                  DM_OUT(real) tHit, DM_OUT(int) count, DM_OUT(int) triangle, DM_OUT(rvec2) uv) {
     int cone = dmConeIndex(d, coneM, coneN);
     bool hit = true; // until the ray leaves, as dmMesoMarchDdm
     count = 0;
-    entry = -1;
+    triangle = -1;
     uv = rvec2(real(0));
     real t = real(0);
     ivec3 v = dmVoxelAt(o, d);
@@ -131,17 +134,24 @@ DM_TFUNC bool dmMesoMarchDdmSolid(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int
             real tBest = max(dmVoxelExit(o, d, v, axis), t);
             ivec2 range = dmMesoFetchSolidRange(m, v.x, v.y, v.z);
             rvec3 ol = o - rvec3(real(v.x), real(v.y), real(v.z));
+            ivec2 tileV = ivec2(dmFloorDiv(v.x, m.width), dmFloorDiv(v.y, m.height));
             int found = -1;
             for (int e = range.x; e < range.y; ++e) {
-                rvec3 a = rvec3(dmMesoFetchSolidTriangle(m, e, 0));
-                rvec3 e1 = rvec3(dmMesoFetchSolidTriangle(m, e, 1));
-                rvec3 e2 = rvec3(dmMesoFetchSolidTriangle(m, e, 2));
+                uint w = dmMesoFetchSolidEntry(m, e);
+                int tri = int(w & 16777215u);
+                // The copy's corner in v's frame: the triangle's own corner less v moved back
+                // by the tiles between the entry's copy and v (integers: exact).
+                ivec3 back = ivec3(v.x - (tileV.x - (int((w >> 24u) & 15u) - 8)) * m.width,
+                                   v.y - (tileV.y - (int(w >> 28u) - 8)) * m.height, v.z);
+                rvec3 a = rvec3(dmMesoFetchSolidTriangle(m, tri, 0)) - rvec3(real(back.x), real(back.y), real(back.z));
+                rvec3 e1 = rvec3(dmMesoFetchSolidTriangle(m, tri, 1));
+                rvec3 e2 = rvec3(dmMesoFetchSolidTriangle(m, tri, 2));
                 if (dmRayTriangle(ol, d, a, e1, e2, t, tBest, uv)) {
-                    found = e;
+                    found = tri;
                 }
             }
             if (found >= 0) {
-                entry = found;
+                triangle = found;
                 t = tBest;
                 break;
             }

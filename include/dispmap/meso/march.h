@@ -52,6 +52,7 @@ namespace dispmap::kern {
 /// one). The fetch functions below are the CPU's side of the loops' memory.
 template <typename real> struct DmMesoMapsT {
     int layers = 0;
+    int width = 0, height = 0; ///< the tile's voxels (read by the solid's march)
     const MesoHeightField* field = nullptr;
     const DistanceMap* distance = nullptr;
     const DirectionalDistanceMap* dense = nullptr;
@@ -72,14 +73,17 @@ template <typename real> glm::vec4 dmMesoFetchQuadric(const DmMesoMapsT<real>& m
                static_cast<std::size_t>(part)];
 }
 template <typename real> std::uint32_t dmMesoFetchImage(const DmMesoMapsT<real>& m, int i) { return m.image->words[static_cast<std::size_t>(i)]; }
-// The solid's side of kernels/meso_march.h's memory (march.glsl reads the same lists from its
-// solid bindings): voxel (i, j, k)'s entries, i and j wrapped, and an entry's rows in `real`.
+// The solid's side of kernels/meso_march.h's memory (march.glsl reads packSolid's buffers):
+// voxel (i, j, k)'s entries (i and j wrapped), an entry's word and a triangle's rows in `real`.
 template <typename real> ivec2 dmMesoFetchSolidRange(const DmMesoMapsT<real>& m, int i, int j, int k) {
     const std::size_t v = m.solid->voxelIndex(i, j, k);
     return ivec2(static_cast<int>(m.solid->entryStart[v]), static_cast<int>(m.solid->entryStart[v + 1]));
 }
-template <typename real> glm::vec<4, real> dmMesoFetchSolidTriangle(const DmMesoMapsT<real>& m, int e, int part) {
-    return glm::vec<4, real>(m.solid->entryRow(static_cast<std::size_t>(e), part));
+template <typename real> std::uint32_t dmMesoFetchSolidEntry(const DmMesoMapsT<real>& m, int e) {
+    return m.solid->entryWord(static_cast<std::size_t>(e));
+}
+template <typename real> glm::vec<4, real> dmMesoFetchSolidTriangle(const DmMesoMapsT<real>& m, int t, int part) {
+    return glm::vec<4, real>(m.solid->triangleRow(static_cast<std::size_t>(t), part));
 }
 } // namespace dispmap::kern
 
@@ -260,10 +264,10 @@ inline bool raySolidVoxel(const MesoSolid& s, const glm::ivec3& v, const glm::dv
     return hit;
 }
 
-/// A hit of the solid marchers: MesoHit, and the entry whose triangle was hit (-1: the floor or
-/// no triangle) with the barycentric (u, v) on it.
+/// A hit of the solid marchers: MesoHit, and the triangle hit (-1: the floor or no triangle)
+/// with the barycentric (u, v) on it.
 struct MesoSolidHit : MesoHit {
-    int entry = -1;
+    int triangle = -1;
     glm::dvec2 uv{0};
 };
 
@@ -277,13 +281,15 @@ MesoSolidHit marchDdmSolid(const Map& map, const ConeSet& cones, const MesoSolid
     if (d.z > 0 && !cones.isotropic && !cones.shadow) throw ArgumentError("marchDdmSolid: an upward (shadow) ray needs shadow cones");
     kern::DmMesoMapsT<real> maps;
     maps.layers = s.layers;
+    maps.width = s.width;
+    maps.height = s.height;
     maps.solid = &s;
     map.bind(maps);
     MesoSolidHit r;
     real t = 0;
     glm::vec<2, real> uv(0);
     r.hit = kern::dmMesoMarchDdmSolid(maps, detail::v3<real>(o), detail::v3<real>(d), cones.kernelM(), cones.n, maxIterations, exitRule,
-                                      mesoRootTolerance<real>(), t, r.iterations, r.entry, uv);
+                                      mesoRootTolerance<real>(), t, r.iterations, r.triangle, uv);
     r.t = static_cast<double>(t);
     r.uv = glm::dvec2(uv);
     return r;

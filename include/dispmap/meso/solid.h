@@ -14,9 +14,9 @@
 //  * buildSolidDdm: the conservative DDM over the solid sub-voxel boxes and the floor (the
 //    same box bound and cone test as the height-field builder), searched in shells of voxels;
 //  * the triangle lists: each voxel lists the copies of the triangles that may cross it
-//    (MesoSolidEntry: the copy next to that voxel, so a marcher never searches the periodic
-//    shifts), as entryStart / entries, and packSolidEntries gives the GPU's rows with the
-//    corners' normals;
+//    (MesoSolidEntry: the triangle and the tile of the copy next to that voxel, so a marcher
+//    never searches the periodic shifts), as entryStart / entries; packSolid gives the GPU's
+//    lists (a word an entry) and triangles (with the corners' normals);
 //  * buildMesoSolidMaps (meso/march.h): the maps the marchers and the renderer read;
 //    marchDdmSolid (meso/march.h, kern::dmMesoMarchDdmSolid on the CPU and the GPU):
 //    Algorithm 3.1 where a voxel whose distance is 0 tests the ray exactly against the
@@ -59,16 +59,23 @@ struct MesoSolid {
                    static_cast<std::size_t>(width) +
                static_cast<std::size_t>(detail::wrapIndex(i, width));
     }
-    /// Entry e's triangle in the frame of its voxel's lower corner: part 0 the first corner a,
-    /// 1 and 2 the edges e1 = b - a and e2 = c - a (what the marchers read, w = 0).
-    glm::dvec4 entryRow(std::size_t e, int part) const {
-        const MesoSolidEntry& en = entries[e];
-        const auto& t = triangles[static_cast<std::size_t>(en.triangle)];
-        const glm::dvec3& a = vertices[static_cast<std::size_t>(t[0])];
-        if (part == 0) return glm::dvec4(a - glm::dvec3(en.voxel), 0.0);
-        return glm::dvec4(vertices[static_cast<std::size_t>(t[static_cast<std::size_t>(part)])] - a, 0.0);
+    /// Triangle t as the marchers read it: part 0 its first corner a, 1 and 2 its edges
+    /// e1 = b - a and e2 = c - a (voxel space, w = 0).
+    glm::dvec4 triangleRow(std::size_t t, int part) const {
+        const auto& tri = triangles[t];
+        const glm::dvec3& a = vertices[static_cast<std::size_t>(tri[0])];
+        if (part == 0) return glm::dvec4(a, 0.0);
+        return glm::dvec4(vertices[static_cast<std::size_t>(tri[static_cast<std::size_t>(part)])] - a, 0.0);
     }
-    std::size_t bytes() const { return entryStart.size() * 4 + entries.size() * 48; } ///< as the GPU holds the lists
+    /// Entry e as one word (packSolid): its triangle in the low 24 bits, then the tile of the
+    /// voxel it was listed from (floor(voxel / size) + 8, four bits for x and four for y).
+    std::uint32_t entryWord(std::size_t e) const {
+        const MesoSolidEntry& en = entries[e];
+        const auto tile = [](int v, int n) { return static_cast<std::uint32_t>((v >= 0 ? v / n : -((-v - 1) / n) - 1) + 8); };
+        return static_cast<std::uint32_t>(en.triangle) | tile(en.voxel.x, width) << 24 | tile(en.voxel.y, height) << 28;
+    }
+    /// As the GPU holds the solid (packSolid): a word a voxel and an entry, three 16-byte rows a triangle.
+    std::size_t bytes() const { return (entryStart.size() + entries.size()) * 4 + triangles.size() * 48; }
     bool subSolid(int x, int y, int z) const {
         if (z < 0) return true;
         if (z >= layers * sub) return false;
@@ -119,6 +126,7 @@ inline MesoSolid mesoSolidFromMesh(const std::vector<glm::dvec3>& vertices, cons
     detail::checkMesoSize("mesh mesostructure", width, height, layers);
     if (sub < 1 || sub > 8) throw ArgumentError("mesh mesostructure: sub-voxels " + std::to_string(sub) + " not in 1..8");
     detail::checkSolidMesh(vertices, triangles);
+    if (triangles.size() >= std::size_t{1} << 24) throw ArgumentError("mesh mesostructure: more than 2^24 triangles");
     if (!std::isfinite(tile.corner.x + tile.corner.y + tile.corner.z) || !(tile.size > 0) || !std::isfinite(tile.size))
         throw ArgumentError("mesh mesostructure: the tile needs a finite corner and a size > 0");
     const double scale = width / tile.size;
@@ -219,7 +227,8 @@ inline MesoSolid mesoSolidFromMesh(const std::vector<glm::dvec3>& vertices, cons
         s.entries.insert(s.entries.end(), l.begin(), l.end());
     }
     s.entryStart.push_back(static_cast<std::uint32_t>(s.entries.size()));
-    if (s.entries.size() > std::size_t{1} << 31) throw ArgumentError("mesh mesostructure: more than 2^31 voxel-triangle entries");
+    if (s.entryStart.size() + s.entries.size() > std::size_t{1} << 31)
+        throw ArgumentError("mesh mesostructure: more than 2^31 voxels and voxel-triangle entries");
     s.voxelSolid.assign(lists.size(), 0);
     for (int z = 0; z < fz; ++z)
         for (int y = 0; y < fh; ++y)
@@ -255,21 +264,29 @@ inline glm::dvec2 octEncode(const glm::dvec3& n) {
     return e;
 }
 
-/// The solid's entries as the GPU reads them (shaders/meso/march.glsl, binding
-/// DM_MESO_SOLID_BINDING + 1): three rows an entry, xyz the float bits of entryRow(e, part), w
-/// the unit normal of the triangle's corner `part` (glm::packSnorm2x16 of octEncode).
-inline std::vector<glm::uvec4> packSolidEntries(const MesoSolid& s) {
-    std::vector<glm::uvec4> rows;
-    rows.reserve(3 * s.entries.size());
-    for (std::size_t e = 0; e < s.entries.size(); ++e) {
-        const auto& t = s.triangles[static_cast<std::size_t>(s.entries[e].triangle)];
+/// The solid as the GPU reads it (shaders/meso/march.glsl, bindings DM_MESO_SOLID_BINDING and
+/// one more): `lists`, the entry range of every voxel (entryStart, offset by its own length so
+/// that a range indexes `lists` itself) followed by the entries (MesoSolid::entryWord);
+/// `triangles`, three rows a triangle, xyz the float bits of triangleRow(t, part) and w the
+/// unit normal of the triangle's corner `part` (glm::packSnorm2x16 of octEncode).
+struct PackedSolid {
+    std::vector<std::uint32_t> lists;
+    std::vector<glm::uvec4> triangles;
+};
+inline PackedSolid packSolid(const MesoSolid& s) {
+    PackedSolid p;
+    const auto offset = static_cast<std::uint32_t>(s.entryStart.size());
+    p.lists.reserve(s.entryStart.size() + s.entries.size());
+    for (std::uint32_t v : s.entryStart) p.lists.push_back(v + offset);
+    for (std::size_t e = 0; e < s.entries.size(); ++e) p.lists.push_back(s.entryWord(e));
+    p.triangles.reserve(3 * s.triangles.size());
+    for (std::size_t t = 0; t < s.triangles.size(); ++t)
         for (int part = 0; part < 3; ++part) {
-            const glm::vec3 r(s.entryRow(e, part));
-            const glm::vec2 n(octEncode(s.normals[static_cast<std::size_t>(t[static_cast<std::size_t>(part)])]));
-            rows.emplace_back(glm::floatBitsToUint(r.x), glm::floatBitsToUint(r.y), glm::floatBitsToUint(r.z), glm::packSnorm2x16(n));
+            const glm::vec3 r(s.triangleRow(t, part));
+            const glm::vec2 n(octEncode(s.normals[static_cast<std::size_t>(s.triangles[t][static_cast<std::size_t>(part)])]));
+            p.triangles.emplace_back(glm::floatBitsToUint(r.x), glm::floatBitsToUint(r.y), glm::floatBitsToUint(r.z), glm::packSnorm2x16(n));
         }
-    }
-    return rows;
+    return p;
 }
 
 /// Appends a closed UV sphere (outward triangles, n rings) of radius r at c: a bead.

@@ -22,12 +22,11 @@ static_assert(sizeof(MesoGpuSize) == 40);
 MesoGpuSize mesoGpuSize(const MesoMaps& maps);
 
 /// heights, distances, DDM grid, DDM atlas, column quadrics (march.glsl's bindings +0..+4),
-/// then a solid's entry starts and entries (MesoSolid::entryStart, packSolidEntries: the two
-/// bindings from DM_MESO_SOLID_BINDING on). An empty map (e.g. no atlas block, a height
+/// then a solid's lists and triangles (packSolid: the two bindings from DM_MESO_SOLID_BINDING on). An empty map (e.g. no atlas block, a height
 /// field's solid lists) becomes a 16-byte placeholder.
 struct MesoBuffers {
-    Buffer heights, distances, grid, atlas, quadrics, solidStarts, solidEntries;
-    std::array<const Buffer*, 7> all() const { return {&heights, &distances, &grid, &atlas, &quadrics, &solidStarts, &solidEntries}; }
+    Buffer heights, distances, grid, atlas, quadrics, solidLists, solidTriangles;
+    std::array<const Buffer*, 7> all() const { return {&heights, &distances, &grid, &atlas, &quadrics, &solidLists, &solidTriangles}; }
     std::size_t bytes = 0; ///< uploaded bytes
 };
 
