@@ -232,7 +232,7 @@ TEST_CASE("min-filtered levels hold the minimum and stay conservative", "[meso][
     CHECK_THROWS_AS(minFilter(minFilter(minFilter(coarse))), ArgumentError); // 8 -> 4 -> 2: below 4
 }
 
-TEST_CASE("compression: atlas blocks read back bit for bit, the rest their block minimum", "[meso][ddm]") {
+TEST_CASE("compression: atlas blocks read back bit for bit, the rest their block minimum or a plane below", "[meso][ddm]") {
     const MesoHeightField hf = dmtest::hardField(16, 16, 8);
     const ConeSet cones{4, 1, true, false};
     const DirectionalDistanceMap m = buildDdm(hf, cones);
@@ -240,13 +240,16 @@ TEST_CASE("compression: atlas blocks read back bit for bit, the rest their block
     const CompressedDdm c = compressDdm(m, 4, paper);
     CHECK(c.atlasBlocks() > 0);
     CHECK(c.ratio() > 1.0);
-    // Each block stored whole when it holds a 0 (the paper's rule) or, with a finite spread,
-    // when its values differ by more than the spread; else as its minimum.
-    std::size_t previous = 0;
+    CHECK(c.planeBlocks() == 0); // the paper's rule: free blocks keep their minimum
+    // Each block: zeros only or free space spreading by at most the spread keep one value (the
+    // minimum); other free space the plane below it when no voxel reads more than the spread
+    // under its value; the rest (a 0 and a non-zero value, the paper's rule) whole.
+    std::size_t previous = 0, planes = 0;
     for (const float spread : {paper, 2.0f, 1.0f, 0.0f}) {
         INFO("spread " << spread);
         const CompressedDdm cs = compressDdm(m, 4, spread);
-        int exactReads = 0, minimumReads = 0;
+        CHECK(cs.wordsValid());
+        int exactReads = 0, minimumReads = 0, planeReads = 0;
         for (int cone = 0; cone < cones.count(); ++cone)
             for (int k = 0; k < m.layers; ++k)
                 for (int j = 0; j < m.height; ++j)
@@ -258,18 +261,33 @@ TEST_CASE("compression: atlas blocks read back bit for bit, the rest their block
                             lo = std::min(lo, x);
                             hi = std::max(hi, x);
                         }
-                        const bool whole = (lo == 0 && hi > 0) || hi - lo > spread;
-                        const float got = cs.lookup(cone, i, j, k), want = whole ? m.at(cone, i, j, k) : lo;
-                        exactReads += whole;
-                        minimumReads += !whole && want != m.at(cone, i, j, k);
-                        REQUIRE(std::memcmp(&got, &want, sizeof got) == 0);
+                        int index = -1, kind = -1;
+                        (void)kern::dmGridWordDistance(cs.grid[cs.gridIndex(cone, bx, by, bz)], index, kind);
+                        const float got = cs.lookup(cone, i, j, k), value = m.at(cone, i, j, k);
+                        const bool one = hi == 0 || (lo > 0 && hi - lo <= spread);
+                        if (one) {
+                            REQUIRE(kind == 0);
+                            REQUIRE(std::memcmp(&got, &lo, sizeof got) == 0);
+                            minimumReads += got != value;
+                        } else if (kind == 2) {
+                            REQUIRE(lo > 0); // free space only
+                            REQUIRE(got <= value); // conservative
+                            REQUIRE(got >= value - spread);
+                            ++planeReads;
+                        } else {
+                            REQUIRE(kind == 1);
+                            REQUIRE(std::memcmp(&got, &value, sizeof got) == 0);
+                            ++exactReads;
+                        }
                     }
         CHECK(cs.atlasBlocks() >= previous); // a smaller spread stores more blocks whole
         previous = cs.atlasBlocks();
+        planes += cs.planeBlocks();
         CHECK(exactReads > 0);
-        if (spread == 0) CHECK(minimumReads == 0); // every block with two values is whole
-        if (std::isinf(spread)) CHECK(minimumReads > 0); // the paper's rule keeps some minima
+        if (spread == 0) CHECK((minimumReads == 0 && planeReads == 0)); // every block with two values is whole
+        if (std::isinf(spread)) CHECK((minimumReads > 0 && planeReads == 0)); // the paper's rule keeps some minima
     }
+    CHECK(planes > 0); // the finite spreads bound some free blocks by planes
     // The march finds the same hits through the compressed and the dense map.
     const ColumnQuadrics q = buildColumnQuadrics(hf);
     std::mt19937 rng(9);
@@ -566,8 +584,38 @@ TEST_CASE("the mesostructure file round trip is bit for bit; damage is a clear e
     CHECK(std::memcmp(r.distance.d.data(), m.distance.d.data(), m.distance.bytes()) == 0);
     CHECK(r.ddm.grid == m.ddm.grid);
     CHECK(std::memcmp(r.ddm.atlas.data(), m.ddm.atlas.data(), m.ddm.atlas.size() * 4) == 0);
+    {
+        // Plane blocks (free space bounded by a plane) round trip too: a wider field has them.
+        const MesoMaps w = buildMesoMaps(dmtest::hardField(16, 16, 8), {ConeSet{2, 1, true, false}, 4, 2});
+        REQUIRE(w.ddm.planeBlocks() > 0);
+        saveMesoMaps(w, path + ".planes");
+        const MesoMaps wr = loadMesoMaps(path + ".planes");
+        CHECK(wr.ddm.grid == w.ddm.grid);
+        CHECK(std::memcmp(wr.ddm.planes.data(), w.ddm.planes.data(), w.ddm.planes.size() * 4) == 0);
+        CHECK(wr.ddm.planes.size() == w.ddm.planes.size());
+    }
     CHECK(std::memcmp(r.quadrics.q.data(), m.quadrics.q.data(), m.quadrics.bytes()) == 0);
     CHECK(r.ddm.cones.name() == m.ddm.cones.name());
+    {
+        // A version-1 file (before plane blocks: no plane count) still loads: the maps of the
+        // paper's rule (no planes) written as version 2, the count cut out, the version set to 1.
+        MesoMapOptions paper{ConeSet{2, 1, true, false}, 4, std::numeric_limits<float>::infinity()};
+        const MesoMaps p = buildMesoMaps(dmtest::hardField(8, 8, 8), paper);
+        REQUIRE(p.ddm.planeBlocks() == 0);
+        saveMesoMaps(p, path + ".v2");
+        std::vector<unsigned char> v1 = detail::readFileBytes(path + ".v2", "test");
+        const std::size_t countAt = 36 + 4 * 64 + 4 * 64 * 8 + 4 + 4 * p.ddm.grid.size() + 4 + 4 * p.ddm.atlas.size();
+        REQUIRE((v1[countAt] == 0 && v1[countAt + 1] == 0 && v1[countAt + 2] == 0 && v1[countAt + 3] == 0));
+        v1.erase(v1.begin() + static_cast<std::ptrdiff_t>(countAt), v1.begin() + static_cast<std::ptrdiff_t>(countAt + 4));
+        v1[8] = 1;
+        v1.resize(v1.size() - 4);
+        const std::uint32_t crc = detail::crc32Of(v1.data(), v1.size());
+        for (int b = 0; b < 4; ++b) v1.push_back(static_cast<unsigned char>(crc >> (8 * b)));
+        detail::writeFileAtomically(path + ".v1", v1, "test");
+        const MesoMaps old = loadMesoMaps(path + ".v1");
+        CHECK(old.ddm.grid == p.ddm.grid);
+        CHECK(old.ddm.planes.empty());
+    }
     // Flip a byte in the middle; cut the file; not a file at all.
     std::vector<unsigned char> bytes = detail::readFileBytes(path, "test");
     std::vector<unsigned char> bad = bytes;

@@ -49,8 +49,10 @@ MesoBuffers uploadMesoMaps(Context& ctx, const MesoMaps& maps) {
     (void)mesoGpuSize(maps); // validates
     std::size_t bytes = 0;
     const PackedSolid solid = maps.isSolid() ? packSolid(maps.solid) : PackedSolid{};
+    std::vector<float> atlas = maps.ddm.atlas; // the atlas buffer: the blocks, then the plane records
+    atlas.insert(atlas.end(), maps.ddm.planes.begin(), maps.ddm.planes.end());
     MesoBuffers b{uploadVector(ctx, maps.field.h, bytes), uploadVector(ctx, maps.distance.d, bytes),
-                  uploadVector(ctx, maps.ddm.grid, bytes), uploadVector(ctx, maps.ddm.atlas, bytes),
+                  uploadVector(ctx, maps.ddm.grid, bytes), uploadVector(ctx, atlas, bytes),
                   uploadVector(ctx, maps.quadrics.q, bytes), uploadVector(ctx, solid.lists, bytes),
                   uploadVector(ctx, solid.triangles, bytes), 0};
     b.bytes = bytes;

@@ -451,17 +451,30 @@ DM_TFUNC real dmPomIntersect(rvec2 bracket, real aboveA, real aboveB) {
     return w > real(0) ? bracket.x + (bracket.y - bracket.x) * (aboveA / w) : bracket.y;
 }
 
-// The compressed DDM (Mehra & Kumar §4, Appendix A): per cone a lookup grid of B^3 blocks; a
-// grid word with bit 31 set holds the block's index in the atlas (blocks a surface passes
-// through, and blocks whose distances spread widely, stored in full), otherwise the bits of the
-// block's minimum distance (a non-negative float, whose sign bit is 0). Returns the distance, or -1 with atlasIndex set.
-DM_FUNC float dmGridWordDistance(uint w, DM_OUT(int) atlasIndex) {
+// The compressed DDM (Mehra & Kumar §4, Appendix A): per cone a lookup grid of B^3 blocks. A
+// grid word with bit 31 clear holds the bits of the block's one distance (a non-negative
+// float, whose sign bit is 0: all its voxels read it); with bits 31 and 30 = 10 the block's
+// index in the atlas (blocks a surface passes through, and blocks of free space no one value or
+// plane bounds closely, stored in full); with 11 the offset, in floats of the atlas buffer, of
+// the block's plane record (a0, gx, gy, gz: dmPlaneBlockDistance). Returns the one distance
+// with kind 0, or -1 with kind 1 (atlasIndex the block) or 2 (atlasIndex the record's offset).
+DM_FUNC float dmGridWordDistance(uint w, DM_OUT(int) atlasIndex, DM_OUT(int) kind) {
     atlasIndex = -1;
+    kind = 0;
     if ((w >> 31u) != 0u) {
-        atlasIndex = int(w & 0x7fffffffu);
+        kind = ((w >> 30u) & 1u) != 0u ? 2 : 1;
+        atlasIndex = int(w & 0x3fffffffu);
         return float(-1.0);
     }
     return uintBitsToFloat(w);
+}
+
+// A plane block's distance at voxel f of the block (0 .. B - 1 along each axis): the plane
+// a0 + gx f.x + gy f.y + gz f.z (added in that order), at least 0. compressDdm fits the plane
+// below every value of the block (so the bound stays conservative) and checks it with this
+// very function.
+DM_FUNC float dmPlaneBlockDistance(float a0, float gx, float gy, float gz, ivec3 f) {
+    return max(((a0 + gx * float(f.x)) + gy * float(f.y)) + gz * float(f.z), float(0.0));
 }
 #undef real
 #undef rvec2

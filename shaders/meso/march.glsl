@@ -10,7 +10,8 @@
 //   +0 heights    MesoHeightField::h, W x H floats, x fastest
 //   +1 distances  DistanceMap::d, [k][j][i] floats
 //   +2 grid       CompressedDdm::grid, [cone][bz][by][bx] uint words
-//   +3 atlas      CompressedDdm::atlas, blocks of block^3 floats, x fastest
+//   +3 atlas      CompressedDdm::atlas, blocks of block^3 floats, x fastest, then
+//                 CompressedDdm::planes (four floats a plane block)
 //   +4 quadrics   ColumnQuadrics::q, three vec4 per column, x fastest
 //   (+5 images    the albedo's and the normal map's MesoAlbedo::words: DM_MESO_IMAGE_BINDING below)
 //   (+6 lists     a solid's PackedSolid::lists: each voxel's entry range, then the entries' words:
@@ -94,10 +95,15 @@ float dmMesoDdmLookup(DmMesoSize s, int c, int i0, int j0, int k) {
     int i = dmMesoWrap(i0, s.width);
     int j = dmMesoWrap(j0, s.height);
     int atlasIndex = -1;
+    int kind = 0;
     int b = s.block;
-    float d = dmGridWordDistance(dmMesoGrid[((c * s.gz + k / b) * s.gy + j / b) * s.gx + i / b], atlasIndex);
-    if (atlasIndex < 0) {
+    float d = dmGridWordDistance(dmMesoGrid[((c * s.gz + k / b) * s.gy + j / b) * s.gx + i / b], atlasIndex, kind);
+    if (kind == 0) {
         return d;
+    }
+    if (kind == 2) {
+        return dmPlaneBlockDistance(dmMesoAtlas[atlasIndex], dmMesoAtlas[atlasIndex + 1], dmMesoAtlas[atlasIndex + 2], dmMesoAtlas[atlasIndex + 3],
+                                    ivec3(i % b, j % b, k % b));
     }
     return dmMesoAtlas[atlasIndex * (b * b * b) + ((k % b) * b + j % b) * b + i % b];
 }

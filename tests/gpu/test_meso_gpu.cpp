@@ -52,6 +52,9 @@ const MesoMaps& shadowMaps() { // 4 x 1 view cones + shadow cones, the hard-case
 }
 
 MesoRenderOptions smallScene(MesoMethod method) {
+    // The parity rows and these scenes read every kind of compressed block: whole, one value,
+    // and a plane (82 of the 512 grid words of these maps).
+    REQUIRE(shadowMaps().ddm.planeBlocks() > 0);
     MesoRenderOptions o;
     o.width = 64;
     o.height = 48;

@@ -2,14 +2,16 @@
 // The mesostructure file: a MesoMaps on disk, bit for bit (saveMesoMaps / loadMesoMaps), so
 // a tool bakes the maps once and an engine uploads them. Needs zlib (crc32).
 //
-// Format, version 1; integers little-endian, floats as the bits of IEEE-754 binary32:
-//   magic "DMMESO\0\0", u32 version = 1,
+// Format, version 2; integers little-endian, floats as the bits of IEEE-754 binary32:
+//   magic "DMMESO\0\0", u32 version = 2,
 //   u32 width, height, layers, u8 cones m, n, shadow, isotropic, u32 block, u32 subsamples,
 //   f32 heights[width height], f32 distance[width height layers],
 //   u32 grid word count G, u32 words[G], u32 atlas value count A, f32 atlas[A],
+//   u32 plane value count P, f32 planes[P] (CompressedDdm::planes; version 1 has neither),
 //   f32 quadrics[12 width height], u32 CRC-32 of every byte before it.
-// A load checks sizes before every read, the magic, version, ranges, that G and A are those the
-// sizes imply, that every atlas index in the grid exists, finiteness, and the checksum;
+// Version 1 files (no plane blocks) still load. A load checks sizes before every read, the
+// magic, version, ranges, that G and A are those the sizes imply, that every atlas block and
+// plane record a grid word names exists, finiteness, and the checksum;
 // failures are FileError naming the file (as a mesostructure file). Files above
 // kMaxMesoFileBytes are neither written (ArgumentError) nor read. Writes are atomic.
 #include "dispmap/meso/march.h"
@@ -18,7 +20,7 @@
 namespace dispmap {
 
 inline constexpr std::array<unsigned char, 8> kMesoFileMagic = {'D', 'M', 'M', 'E', 'S', 'O', '\0', '\0'};
-inline constexpr std::uint32_t kMesoFileVersion = 1;
+inline constexpr std::uint32_t kMesoFileVersion = 2;
 /// Largest mesostructure file read: the renderer uploads each map as one storage buffer, and a
 /// Vulkan device addresses at most 4 GiB in one (maxStorageBufferRange is 32-bit).
 inline constexpr std::uint64_t kMaxMesoFileBytes = std::uint64_t{4} << 30;
@@ -50,6 +52,8 @@ inline void saveMesoMaps(const MesoMaps& m, const std::string& path) {
     for (std::uint32_t w : m.ddm.grid) out.u32(w);
     out.u32(static_cast<std::uint32_t>(m.ddm.atlas.size()));
     for (float v : m.ddm.atlas) out.f32(v);
+    out.u32(static_cast<std::uint32_t>(m.ddm.planes.size()));
+    for (float v : m.ddm.planes) out.f32(v);
     for (const glm::vec4& q : m.quadrics.q)
         for (int i = 0; i < 4; ++i) out.f32(q[i]);
     out.u32(detail::crc32Of(out.bytes.data(), out.bytes.size()));
@@ -69,7 +73,8 @@ inline MesoMaps loadMesoMaps(const std::string& path) {
     const std::uint32_t stored = crcIn.u32("the checksum");
     if (stored != detail::crc32Of(bytes.data(), crcAt)) throw corrupt("checksum mismatch: the file is corrupted or truncated");
     detail::ByteReader in{bytes, path, kMesoFileMagic.size(), "mesostructure file"};
-    if (const std::uint32_t v = in.u32("the version"); v != kMesoFileVersion) throw corrupt("unsupported version " + std::to_string(v));
+    const std::uint32_t version = in.u32("the version");
+    if (version != 1 && version != kMesoFileVersion) throw corrupt("unsupported version " + std::to_string(version));
     MesoMaps m;
     const auto dim = [&](const char* what, std::uint32_t hi) {
         const std::uint32_t v = in.u32(what);
@@ -129,12 +134,12 @@ inline MesoMaps loadMesoMaps(const std::string& path) {
     const std::size_t blockValues = static_cast<std::size_t>(block * block * block);
     if (atlasValues % blockValues) throw corrupt("atlas size is not a whole number of blocks");
     floats(c.atlas, atlasValues, "the atlas");
-    for (std::uint32_t w : c.grid) {
-        int index = -1;
-        const float d = kern::dmGridWordDistance(w, index);
-        if (index >= 0 ? static_cast<std::size_t>(index) >= c.atlasBlocks() : !(d >= 0 && std::isfinite(d)))
-            throw corrupt("a grid word names a missing atlas block or holds a bad distance");
+    if (version >= 2) {
+        const std::uint32_t planeValues = in.u32("the plane count");
+        if (planeValues % 4) throw corrupt("plane values are not a whole number of planes");
+        floats(c.planes, planeValues, "the planes");
     }
+    if (!c.wordsValid()) throw corrupt("a grid word names a missing atlas block or plane, or holds a bad distance");
     std::vector<float> q;
     floats(q, 12 * texels, "the quadrics");
     m.quadrics.width = W;
