@@ -10,14 +10,16 @@ namespace dispmap {
 
 /// The two-level compressed DDM (Mehra & Kumar §4, Algorithms A.1 / A.2): per cone a lookup
 /// grid of block x block x block blocks (the word's kinds: kern::dmGridWordDistance). A block
-/// holding both 0 and non-zero values (a surface may pass through it) is stored whole in the
-/// atlas; a block of zeros only (inside the solid) keeps 0; a block of free space keeps its
-/// minimum (the word holds the float's bits), which is again conservative, when its values
-/// spread by at most compressDdm's maxSpread; else the plane below its values
-/// (kern::dmPlaneBlockDistance, four floats in `planes`) when no voxel reads more than
-/// maxSpread below its value; else it is stored whole too (a block whose bound sits far below
-/// most of its values would make the march take short steps there). Atlas voxels and zero
-/// blocks read back bit for bit; the rest read a lower bound within maxSpread of their value.
+/// of zeros only (inside the solid) keeps 0; a block of free space keeps its minimum (the word
+/// holds the float's bits), which is again conservative, when its values spread by at most
+/// compressDdm's maxSpread (the paper keeps every free block so); any other block the plane
+/// below its values (kern::dmPlaneBlockDistance, four floats in `planes`) when no voxel reads
+/// more than maxSpread / 2 below its value and exactly its zeros read 0 (a surface may pass
+/// only there: a block over a floor is such a ramp); else it is stored whole in the atlas, as
+/// the paper stores every block that holds a 0 and a non-zero value (a block whose bound sits
+/// far below most of its values would make the march take short steps there). Atlas voxels
+/// and zero blocks read back bit for bit; the rest read a lower bound within maxSpread of their
+/// value.
 /// On the GPU the atlas buffer holds `atlas` and then `planes` (a plane word holds the offset
 /// of its record in that buffer, atlas.size() and up).
 struct CompressedDdm {
@@ -78,12 +80,12 @@ struct CompressedDdm {
 inline constexpr float kDefaultCompressionSpread = 2.0f;
 
 namespace detail {
-// The plane below a block of free space (values v, x fastest, all > 0) that reads each voxel
-// at most maxSpread below its value, through kern::dmPlaneBlockDistance: the least-squares
-// slopes (the normal equations of a full grid separate by axis), the offset lowered until
-// every voxel reads at most its value in float. False when some voxel would read more than
-// maxSpread below it (the block is then stored whole).
-inline bool fitPlaneBlock(const std::vector<float>& v, int block, float maxSpread, glm::vec4& plane) {
+// The plane below a block (values v >= 0, x fastest) that reads each voxel at most maxDeficit
+// below its value, and 0 exactly where the value is 0, through kern::dmPlaneBlockDistance: the
+// least-squares slopes (the normal equations of a full grid separate by axis), the offset
+// lowered until every voxel reads at most its value in float. False when some voxel would
+// read more than maxDeficit below it, or 0 where its value is not (the block is then whole).
+inline bool fitPlaneBlock(const std::vector<float>& v, int block, float maxDeficit, glm::vec4& plane) {
     const double mid = 0.5 * (block - 1);
     double sum = 0, sx = 0, sy = 0, sz = 0, s2 = 0;
     for (int k = 0; k < block; ++k)
@@ -110,9 +112,11 @@ inline bool fitPlaneBlock(const std::vector<float>& v, int block, float maxSprea
                     const float d = v[static_cast<std::size_t>((k * block + j) * block + i)];
                     const float r = kern::dmPlaneBlockDistance(plane.x, plane.y, plane.z, plane.w, glm::ivec3(i, j, k));
                     excess = std::max(excess, r - d);
-                    deficit = std::max(deficit, d - r);
+                    // A voxel a surface may cross (0) reads 0 by the bound; any other must read
+                    // more than 0, or the march would test it for the surface for nothing.
+                    deficit = std::max(deficit, d > 0.0f && !(r > 0.0f) ? std::numeric_limits<float>::infinity() : d - r);
                 }
-        if (excess == 0.0f) return deficit <= maxSpread;
+        if (excess == 0.0f) return deficit <= maxDeficit;
         plane.x = std::nextafter(plane.x - excess, -std::numeric_limits<float>::infinity());
     }
     return false;
@@ -156,7 +160,7 @@ inline CompressedDdm compressDdm(const DirectionalDistanceMap& m, int block = 4,
                     glm::vec4 plane;
                     if (hi == 0.0f || (lo > 0.0f && hi - lo <= maxSpread)) { // all 0 (inside the solid), or even free space: one value
                         std::memcpy(&word, &lo, sizeof word);
-                    } else if (lo > 0.0f && std::isfinite(maxSpread) && detail::fitPlaneBlock(v, block, maxSpread, plane)) {
+                    } else if (std::isfinite(maxSpread) && detail::fitPlaneBlock(v, block, 0.5f * maxSpread, plane)) {
                         word = 0xC0000000u | static_cast<std::uint32_t>(c.planeBlocks()); // the index for now: the offset below
                         planeWords.push_back(c.gridIndex(cone, bx, by, bz));
                         for (int q = 0; q < 4; ++q) c.planes.push_back(plane[q]);
