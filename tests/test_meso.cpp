@@ -717,18 +717,16 @@ namespace dmtest_meso {
 
 namespace {
 // Four beads in 16 x 16 x 16 voxels (backend_vulkan/parity's solid): one on the floor, one
-// floating, one touching the tile's edge y = 16.
+// floating, two across the tile's sides x = 0 and y = 16.
 MesoSolid fourBeads() {
     std::vector<glm::dvec3> v;
     std::vector<std::array<int, 3>> t;
-    appendUvSphere({4, 4, 4}, 3.0, 8, v, t);
-    appendUvSphere({11, 10, 9}, 2.5, 8, v, t);
-    appendUvSphere({12, 3, 5}, 2.0, 6, v, t);
-    appendUvSphere({8, 13.5, 12}, 2.5, 8, v, t);
-    v.push_back({0, 0, 1});
-    v.push_back({16, 16, 1});
-    t.push_back({static_cast<int>(v.size()) - 2, static_cast<int>(v.size()) - 2, static_cast<int>(v.size()) - 1});
-    return mesoSolidFromMesh(v, t, 16, 16, 16, 2, 0.0);
+    appendUvSphere({4, 4, 3}, 3.0, 8, v, t);     // on the floor
+    appendUvSphere({11, 10, 9}, 2.5, 8, v, t);   // floating: an overhang
+    appendUvSphere({0.5, 9, 5}, 2.0, 6, v, t);   // across the side x = 0: its copy in the tile before
+    appendUvSphere({8, 15, 12}, 2.5, 8, v, t);   // across the side y = 16
+    // The tile: [0, 16]^2 in the mesh's units, the floor at z = 0.
+    return mesoSolidFromMesh(v, t, 16, 16, 16, MesoSolidTile{{0, 0, 0}, 16.0});
 }
 } // namespace
 
@@ -805,6 +803,10 @@ TEST_CASE("the solid's corner normals survive the GPU's packing; voxel normals r
         CHECK(static_cast<int>(w >> 28) - 8 == kern::dmFloorDiv(en.voxel.y, s.height));
     }
     CHECK(s.bytes() == 4 * packed.lists.size() + 16 * rows.size());
+    // The bead across x = 0 is listed from the tile before (a negative tile), the one across
+    // y = 16 from the tile after.
+    CHECK(std::any_of(s.entries.begin(), s.entries.end(), [](const MesoSolidEntry& e) { return e.voxel.x < 0; }));
+    CHECK(std::any_of(s.entries.begin(), s.entries.end(), [&](const MesoSolidEntry& e) { return e.voxel.y >= s.height; }));
     double worst = 0;
     for (std::size_t e = 0; e < s.triangles.size(); ++e)
         for (int part = 0; part < 3; ++part) {
@@ -844,6 +846,25 @@ TEST_CASE("the solid's corner normals survive the GPU's packing; voxel normals r
         CHECK(glm::dot(w, world(nv)) > 0); // the side nv points to
         CHECK(glm::length(w) == Approx(1.0).epsilon(1e-12));
     }
+    {
+        // A mirrored chart (pT flipped, the frame's determinant negative): the normal stays on
+        // the side nv points to.
+        const glm::dvec3 pS(1, 0.2, 0), pT(0.1, -1, 0), nn(0, 0, 1), vpu(10, 10, 30), nv = glm::normalize(glm::dvec3(0.2, 0.3, 1));
+        const glm::dvec3 w = kern::dmFrameVoxelNormal(nv, pS, pT, nn, vpu);
+        const glm::dvec3 up = pS * (nv.x / vpu.x) + pT * (nv.y / vpu.y) + nn * (nv.z / vpu.z);
+        CHECK(glm::dot(w, up) > 0);
+        CHECK(std::abs(glm::dot(w, pS * 0.3 / vpu.x - nn * (0.3 * nv.x / nv.z) / vpu.z)) < 1e-12); // perpendicular to a tangent
+    }
+    // dmSolidFacing: the face's normal towards the ray, the shading normal to its side.
+    {
+        glm::dvec3 n(0.1, 0, -1);
+        const glm::dvec3 g = kern::dmSolidFacing(glm::dvec3(1, 0, 0), glm::dvec3(0, 1, 0), glm::dvec3(0, 0, 1), n); // seen from below
+        CHECK(g == glm::dvec3(0, 0, -1));
+        CHECK(n == glm::dvec3(0.1, 0, -1));
+        glm::dvec3 m(0.1, 0, -1);
+        CHECK(kern::dmSolidFacing(glm::dvec3(1, 0, 0), glm::dvec3(0, 1, 0), glm::dvec3(0, 0, -1), m) == glm::dvec3(0, 0, 1));
+        CHECK(m == glm::dvec3(-0.1, 0, 1));
+    }
     const glm::dvec3 nv(0.3, -0.4, 0.866), vpu(8, 4, 20);
     const glm::dvec3 plane = kern::dmFrameVoxelNormal(nv, glm::dvec3(1, 0, 0), glm::dvec3(0, 1, 0), glm::dvec3(0, 0, 1), vpu);
     const glm::dvec3 expect = glm::normalize(nv * vpu);
@@ -853,6 +874,65 @@ TEST_CASE("the solid's corner normals survive the GPU's packing; voxel normals r
 } // namespace dmtest_meso
 
 namespace dmtest_meso {
+
+TEST_CASE("a box whose faces lie on voxel walls, its top on the slab's: the march finds every face", "[meso][solid]") {
+    // An axis-aligned box, x and y in [3, 9], z in [2, 8] voxels, in 12 x 12 x 8 voxels: its
+    // faces on voxel walls and its top on the slab's top z = 8. The reference is the ray against
+    // the box in closed form (the slab method), not the voxels' lists.
+    std::vector<glm::dvec3> v;
+    for (int k = 0; k < 8; ++k) v.push_back({3.0 + 6 * (k & 1), 3.0 + 6 * ((k >> 1) & 1), 2.0 + 6 * (k >> 2)});
+    const std::vector<std::array<int, 3>> t = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
+                                               {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
+    const MesoSolid s = mesoSolidFromMesh(v, t, 12, 12, 8, MesoSolidTile{{0, 0, 0}, 12.0});
+    MesoMapOptions opt;
+    opt.cones = ConeSet{4, 1, true, false};
+    opt.distance = false;
+    const MesoMaps maps = buildMesoSolidMaps(s, opt);
+    const auto boxHit = [](const glm::dvec3& o, const glm::dvec3& d, double& tHit) { // the first entry into the box or the floor
+        double t0 = 0, t1 = std::numeric_limits<double>::infinity();
+        for (int a = 0; a < 3; ++a) {
+            const double lo = a < 2 ? 3.0 : 2.0, hi = a < 2 ? 9.0 : 8.0;
+            // The box repeats every 12 voxels in x and y: take the copy in o's tile.
+            const double shift = a < 2 ? 12.0 * std::floor(o[a] / 12.0) : 0.0;
+            if (d[a] == 0) {
+                if (o[a] < lo + shift || o[a] > hi + shift) return false;
+                continue;
+            }
+            double ta = (lo + shift - o[a]) / d[a], tb = (hi + shift - o[a]) / d[a];
+            if (ta > tb) std::swap(ta, tb);
+            t0 = std::max(t0, ta);
+            t1 = std::min(t1, tb);
+        }
+        if (t0 > t1) return false;
+        tHit = t0;
+        return true;
+    };
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> U(0.0, 1.0);
+    int tops = 0, walls = 0;
+    for (int n = 0; n < 3000; ++n) {
+        // Rays that stay in one tile's column of copies: steep enough to reach the floor within it.
+        const bool up = n % 3 == 2;
+        const glm::dvec3 o(1 + 10 * U(rng), 1 + 10 * U(rng), up ? 0.5 + 1.2 * U(rng) : 8.0);
+        const double z = (up ? 1 : -1) * (0.85 + 0.15 * U(rng)), az = 6.283185307179586 * U(rng);
+        const glm::vec3 df(glm::dvec3(std::sqrt(1 - z * z) * std::cos(az), std::sqrt(1 - z * z) * std::sin(az), z));
+        const glm::dvec3 d(df), of{glm::vec3(o)};
+        double tBox = 0;
+        const bool box = boxHit(of, d, tBox);
+        const MesoSolidHit h = marchDdmSolid<float>(CompressedDdmView{&maps.ddm}, maps.ddm.cones, s, of, d, 1024, 1);
+        INFO("o " << of.x << "," << of.y << "," << of.z << " d " << d.x << "," << d.y << "," << d.z);
+        if (box) {
+            REQUIRE(h.triangle >= 0);
+            REQUIRE(h.t == Approx(tBox).margin(1e-4)); // float, t below 10
+            tops += std::abs(of.z + tBox * d.z - 8.0) < 1e-6 ? 1 : 0;
+            walls += !up && std::abs(of.z + tBox * d.z - 8.0) > 1e-3 ? 1 : 0;
+        } else if (!up) {
+            REQUIRE(h.triangle == -1); // the floor
+        }
+    }
+    CHECK(tops > 300);  // the top on the slab's top is hit (it was listed nowhere before)
+    CHECK(walls > 10);  // and the side walls on voxel walls
+}
 
 TEST_CASE("chain mail: a mesh that crosses the tile's side links the next tile's ring", "[meso][solid]") {
     // Ring A lies flat in the middle of a tile 3 units wide; ring B stands in the xz plane,
@@ -912,6 +992,15 @@ TEST_CASE("chain mail: a mesh that crosses the tile's side links the next tile's
     CHECK_THROWS_WITH(mesoSolidFromMesh(v, t, 24, 24, 24, MesoSolidTile{{0, 0, 0}, 0.0}), Catch::Contains("size > 0"));
     CHECK_THROWS_WITH(mesoSolidFromMesh(v, t, 24, 24, 8, tile), Catch::Contains("more than 8 layers"));
     CHECK_THROWS_WITH(mesoSolidFromMesh(v, t, 24, 24, 24, MesoSolidTile{{-20.0, 0, -0.5}, 3.0}), Catch::Contains("tiles beyond"));
+    // Far below the floor (its voxel rows would be looped over, and overflow an int).
+    CHECK_THROWS_WITH(mesoSolidFromMesh(v, t, 24, 24, 24, MesoSolidTile{{0.0, 0, 1e9}, 3.0}), Catch::Contains("below its floor"));
+    // A voxel no pixel can afford: a fine sphere in a few voxels.
+    std::vector<glm::dvec3> fine;
+    std::vector<std::array<int, 3>> fineT;
+    appendUvSphere({1, 1, 1}, 0.9, 48, fine, fineT);
+    CHECK_THROWS_WITH(mesoSolidFromMesh(fine, fineT, 2, 2, 2, MesoSolidTile{{0, 0, 0}, 2.0}), Catch::Contains("crossed by more than 1024 triangles"));
+    // A solid's maps are not a mesostructure file's.
+    CHECK_THROWS_WITH(saveMesoMaps(maps, std::string(DISPMAP_TEST_BINARY_DIR) + "/solid.dmm"), Catch::Contains("height field's maps"));
 }
 
 } // namespace dmtest_meso
@@ -949,7 +1038,7 @@ TEST_CASE("a scene's mesh mesostructure: chain mail placed in its tile, and clea
         {R"({"mesostructure": {"mesh": "chainmail.obj", "depth": 4}})", "'mesostructure.depth' applies to a height field"},
         {R"({"mesostructure": {"mesh": "chainmail.obj", "normals": "height"}})", "'mesostructure.normals' applies to a height field"},
         {R"({"mesostructure": {"mesh": "chainmail.obj"}, "effects": {"technique": "relief"}})", "is marched by the DDM"},
-        {R"({"mesostructure": {"mesh": "chainmail.obj", "size": 0}})", "'mesostructure.size' must be given for a 'mesh'"},
+        {R"({"mesostructure": {"mesh": "chainmail.obj", "size": 0}})", "'mesostructure.size' 0: a 'mesh' needs the voxels"},
         {R"({"mesostructure": {"meshTile": {"corner": [0, 0, 0], "size": 3}}})", "'mesostructure.meshTile' without 'mesostructure.mesh'"},
         {R"({"mesostructure": {"mesh": "chainmail.obj", "meshTile": {"size": 3}}})", "needs 'corner' [x, y, z] and 'size'"},
         {R"({"mesostructure": {"mesh": "chainmail.obj", "meshTile": {"corner": [0, 0, 0], "size": -1}}})", "must be > 0"},

@@ -40,14 +40,12 @@ MesoHeightField mesoParityField(int width, int height, int layers) {
 MesoSolid mesoParitySolid() {
     std::vector<glm::dvec3> v;
     std::vector<std::array<int, 3>> t;
-    appendUvSphere({4, 4, 4}, 3.0, 8, v, t);   // on the floor
-    appendUvSphere({11, 10, 9}, 2.5, 8, v, t); // floating: an overhang
-    appendUvSphere({12, 3, 5}, 2.0, 6, v, t);
-    appendUvSphere({8, 13.5, 12}, 2.5, 8, v, t); // touches the tile's edge y = 16
-    v.push_back({0, 0, 1}); // pins the tile to [0, 16]^2 and the floor to z = 1
-    v.push_back({16, 16, 1});
-    t.push_back({static_cast<int>(v.size()) - 2, static_cast<int>(v.size()) - 2, static_cast<int>(v.size()) - 1}); // degenerate: ignored
-    return mesoSolidFromMesh(v, t, 16, 16, 16, 2, 0.0);
+    appendUvSphere({4, 4, 3}, 3.0, 8, v, t);     // on the floor
+    appendUvSphere({11, 10, 9}, 2.5, 8, v, t);   // floating: an overhang
+    appendUvSphere({0.5, 9, 5}, 2.0, 6, v, t);   // across the side x = 0: its copy in the tile before
+    appendUvSphere({8, 15, 12}, 2.5, 8, v, t);   // across the side y = 16
+    // The tile: [0, 16]^2 in the mesh's units, the floor at z = 0.
+    return mesoSolidFromMesh(v, t, 16, 16, 16, MesoSolidTile{{0, 0, 0}, 16.0});
 }
 
 namespace {

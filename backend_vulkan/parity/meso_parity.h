@@ -16,7 +16,8 @@ namespace dispmap::parity {
 MesoHeightField mesoParityField(int width, int height, int layers);
 
 /// The solid of the solid rows: four beads (meso/solid.h's UV spheres) in 16 x 16 x 16 voxels,
-/// one standing on the floor, one floating, one touching the tile's edge.
+/// one standing on the floor, one floating, two across the tile's sides x = 0 and y = 16 (their
+/// entries name the tiles before and after: negative and positive shifts).
 MesoSolid mesoParitySolid();
 
 /// The marcher rows: Donnelly's distance map (fixed count, eps), the compressed DDM (4 x 1

@@ -136,6 +136,17 @@ void validateLook(const Context& ctx, const MesoMaps& maps, const MesoLook& o, c
         throw ArgumentError("meso renderer: the albedo and normal map take " + std::to_string(imageBytes) +
                             " bytes, beyond the device's maxStorageBufferRange (" + std::to_string(ctx.properties().limits.maxStorageBufferRange) +
                             "): smaller images, or no mips");
+    if (maps.isSolid()) {
+        // The solid's buffers (packSolid): a word a voxel and an entry, 48 bytes a triangle.
+        const std::uint64_t lists = 4 * std::uint64_t{maps.solid.entryStart.size() + maps.solid.entries.size()},
+                            triangles = 48 * std::uint64_t{maps.solid.triangles.size()};
+        if (std::max(lists, triangles) > ctx.properties().limits.maxStorageBufferRange)
+            throw ArgumentError("meso renderer: the solid's " + std::string(lists > triangles ? "lists take " : "triangles take ") +
+                                std::to_string(std::max(lists, triangles)) + " bytes, beyond the device's maxStorageBufferRange (" +
+                                std::to_string(ctx.properties().limits.maxStorageBufferRange) + "): fewer voxels or triangles");
+        if (maps.solid.normals.size() != maps.solid.vertices.size())
+            throw ArgumentError("meso renderer: the solid has no corner normals (build it with mesoSolidFromMesh)");
+    }
     if (o.normalMap && !(std::isfinite(o.normalScale) && std::abs(o.normalScale) <= kMaxNormalScale))
         throw ArgumentError("meso renderer: the normal map's scale must be finite and within +-" + dispmap::detail::drawNumber(kMaxNormalScale));
     if (o.shadows) {

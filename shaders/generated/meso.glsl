@@ -166,6 +166,22 @@ DM_TFUNC void dmVoxelQuadric(rvec4 qa, rvec4 qb, rvec4 qc, int k, DM_OUT(rvec4) 
     }
 }
 
+// The unit geometric normal of a solid's triangle (edges e1, e2), turned to the side the ray d
+// came from (an open mesh is a two-sided sheet); the shading normal n is turned to that side
+// with it. The shadow ray leaves along the geometric normal (the interpolated one may point
+// into a neighbouring face at a silhouette).
+DM_TFUNC rvec3 dmSolidFacing(rvec3 e1, rvec3 e2, rvec3 d, DM_INOUT(rvec3) n) {
+    rvec3 g = dmCross3(e1, e2);
+    g = g * (real(1) / sqrt(dmDot3(g, g)));
+    if (dmDot3(g, d) > real(0)) {
+        g = -g;
+    }
+    if (dmDot3(n, g) < real(0)) {
+        n = -n;
+    }
+    return g;
+}
+
 // floor(i / n) for n > 0 and any i (C++ and GLSL round a negative quotient towards 0).
 DM_FUNC int dmFloorDiv(int i, int n) {
     return i >= 0 ? i / n : -((-1 - i) / n) - 1;
@@ -648,7 +664,24 @@ DM_TFUNC void dmVoxelQuadric(rvec4 qa, rvec4 qb, rvec4 qc, int k, DM_OUT(rvec4) 
         vc = rvec4(real(0), lo + real(1) <= qc.z ? real(1) : real(-1), real(0), real(0));
     }
 }
-#line 188 "include/dispmap/kernels/meso.h"
+#line 183 "include/dispmap/kernels/meso.h"
+
+// The unit geometric normal of a solid's triangle (edges e1, e2), turned to the side the ray d
+// came from (an open mesh is a two-sided sheet); the shading normal n is turned to that side
+// with it. The shadow ray leaves along the geometric normal (the interpolated one may point
+// into a neighbouring face at a silhouette).
+DM_TFUNC rvec3 dmSolidFacing(rvec3 e1, rvec3 e2, rvec3 d, DM_INOUT(rvec3) n) {
+    rvec3 g = dmCross3(e1, e2);
+    g = g * (real(1) / sqrt(dmDot3(g, g)));
+    if (dmDot3(g, d) > real(0)) {
+        g = -g;
+    }
+    if (dmDot3(n, g) < real(0)) {
+        n = -n;
+    }
+    return g;
+}
+#line 204 "include/dispmap/kernels/meso.h"
 
 // --- Triangles (non-height-field detail, meso/solid.h) ---------------------------------------
 // Moller & Trumbore (1997): the crossing of o + t d with the triangle a, a + e1, a + e2 (either
@@ -680,7 +713,7 @@ DM_TFUNC bool dmRayTriangle(rvec3 o, rvec3 d, rvec3 a, rvec3 e1, rvec3 e2, real 
     uv = rvec2(u, v);
     return true;
 }
-#line 219 "include/dispmap/kernels/meso.h"
+#line 235 "include/dispmap/kernels/meso.h"
 
 // The unit vector whose octahedral encoding is e in [-1, 1]^2 (Cigolle et al. 2014, "A survey
 // of efficient representations for independent unit vectors"; packSolid encodes).
@@ -692,7 +725,7 @@ DM_TFUNC rvec3 dmOctDecode(rvec2 e) {
     }
     return n * (real(1) / sqrt(dmDot3(n, n)));
 }
-#line 230 "include/dispmap/kernels/meso.h"
+#line 246 "include/dispmap/kernels/meso.h"
 
 // GLSL's unpackSnorm2x16 (unit 32767), spelled out so that both sides round alike: the low
 // and the high 16 bits as signed integers over unit, clamped to [-1, 1].
@@ -701,7 +734,7 @@ DM_TFUNC rvec2 dmUnpackSnorm2x16(uint w, real unit) {
     int hi = int(w) >> 16;
     return clamp(rvec2(real(lo), real(hi)) / unit, real(-1), real(1));
 }
-#line 238 "include/dispmap/kernels/meso.h"
+#line 254 "include/dispmap/kernels/meso.h"
 
 // The shading normal at barycentric uv of a triangle whose corners' unit normals are n0, n1, n2
 // (octahedral, two snorm16 a word: packSolid) mixed by uv (Phong's interpolation), unit
@@ -713,7 +746,7 @@ DM_TFUNC rvec3 dmSolidCornerNormal(uint n0, uint n1, uint n2, rvec2 uv) {
     real l = dmDot3(n, n);
     return l > real(0) ? n * (real(1) / sqrt(l)) : a;
 }
-#line 249 "include/dispmap/kernels/meso.h"
+#line 265 "include/dispmap/kernels/meso.h"
 
 // --- Voxel traversal (Algorithm 3.3, as an exact DDA) ---------------------------------------
 // The voxel containing p; a coordinate on a voxel wall belongs to the voxel the ray d enters.
@@ -731,7 +764,7 @@ DM_TFUNC ivec3 dmVoxelAt(rvec3 p, rvec3 d) {
     }
     return v;
 }
-#line 266 "include/dispmap/kernels/meso.h"
+#line 282 "include/dispmap/kernels/meso.h"
 
 // Parameter where o + t d leaves voxel v, and the axis (0, 1, 2) of the wall it crosses.
 DM_TFUNC real dmVoxelExit(rvec3 o, rvec3 d, ivec3 v, DM_OUT(int) axis) {
@@ -751,7 +784,7 @@ DM_TFUNC real dmVoxelExit(rvec3 o, rvec3 d, ivec3 v, DM_OUT(int) axis) {
     }
     return t;
 }
-#line 285 "include/dispmap/kernels/meso.h"
+#line 301 "include/dispmap/kernels/meso.h"
 
 // The neighbour of v across the wall `axis` in the direction of d.
 DM_TFUNC ivec3 dmVoxelStep(ivec3 v, rvec3 d, int axis) {
@@ -765,13 +798,13 @@ DM_TFUNC ivec3 dmVoxelStep(ivec3 v, rvec3 d, int axis) {
     }
     return w;
 }
-#line 308 "include/dispmap/kernels/meso.h"
+#line 324 "include/dispmap/kernels/meso.h"
 
 // Parameter where o + t d reaches the plane z = zPlane (d.z != 0).
 DM_TFUNC real dmPlaneHit(rvec3 o, rvec3 d, real zPlane) {
     return (zPlane - o.z) / d.z;
 }
-#line 313 "include/dispmap/kernels/meso.h"
+#line 329 "include/dispmap/kernels/meso.h"
 
 // --- Direction cones (Mehra & Kumar §3.1) ---------------------------------------------------
 // Cone of a voxel-space direction d among m x n cones per hemisphere: azimuth theta (from +x
@@ -801,7 +834,7 @@ DM_TFUNC int dmConeIndex(rvec3 d, int m, int n) {
     int hemisphere = d.z > real(0) ? 1 : 0;
     return (hemisphere * n + band) * m + sector;
 }
-#line 342 "include/dispmap/kernels/meso.h"
+#line 358 "include/dispmap/kernels/meso.h"
 
 // --- Donnelly's distance map ----------------------------------------------------------------
 // Tangent-space direction (x along the texture's u, y along v, z along the normal, any
@@ -812,7 +845,7 @@ DM_TFUNC rvec3 dmTangentToVoxel(rvec3 t, rvec3 voxelsPerUnit) {
     rvec3 v = rvec3(t.x * voxelsPerUnit.x, t.y * voxelsPerUnit.y, t.z * voxelsPerUnit.z);
     return v * (real(1) / sqrt(dmDot3(v, v)));
 }
-#line 352 "include/dispmap/kernels/meso.h"
+#line 368 "include/dispmap/kernels/meso.h"
 
 // Samples of Donnelly's map sit at (i, j, k + 1/2): texel grid points, layer centres. The
 // sample cell of p (its lowest sample (i, j, k), unwrapped) and the trilinear fractions f;
@@ -825,7 +858,7 @@ DM_TFUNC ivec3 dmDistanceSampleCell(rvec3 p, int L, DM_OUT(rvec3) f) {
     f = rvec3(p.x - fx, p.y - fy, zc - real(k));
     return ivec3(int(fx), int(fy), k);
 }
-#line 364 "include/dispmap/kernels/meso.h"
+#line 380 "include/dispmap/kernels/meso.h"
 
 // Trilinear interpolation: lo and hi the samples of layers k and k + 1 in dmBilerp's order
 // ((i, j), (i+1, j), (i+1, j+1), (i, j+1)).
@@ -833,7 +866,7 @@ DM_TFUNC real dmTrilerp(rvec4 lo, rvec4 hi, rvec3 f) {
     rvec2 xy = rvec2(f.x, f.y);
     return dmBilerp(lo, xy) * (real(1) - f.z) + dmBilerp(hi, xy) * f.z;
 }
-#line 371 "include/dispmap/kernels/meso.h"
+#line 387 "include/dispmap/kernels/meso.h"
 
 // One sphere-tracing step (Hart 1996; Donnelly §8.3) with the interpolated distance `dist`
 // at o + t d: returns 1 when converged (dist <= eps; a fixed iteration count passes eps < 0),
@@ -854,7 +887,7 @@ DM_TFUNC int dmSphereTraceStep(DM_INOUT(real) t, real dist, real eps, rvec3 o, r
     }
     return 0;
 }
-#line 391 "include/dispmap/kernels/meso.h"
+#line 407 "include/dispmap/kernels/meso.h"
 
 // --- Conservative (directional) distance maps -----------------------------------------------
 // One step of Algorithm 3.1 for a ray at o + t d in voxel v (inside the slab). `dist` is v's
@@ -890,7 +923,7 @@ DM_TFUNC int dmDdmStep(DM_INOUT(real) t, DM_INOUT(ivec3) v, real dist, rvec4 qa,
     v = w;
     return 0;
 }
-#line 426 "include/dispmap/kernels/meso.h"
+#line 442 "include/dispmap/kernels/meso.h"
 
 // --- Relief mapping and parallax occlusion mapping (height-field baselines) ----------------
 // Texel cell of xy (unwrapped) and the bilinear fraction inside it.
@@ -899,13 +932,13 @@ DM_TFUNC ivec2 dmHeightCell(rvec2 xy, DM_OUT(rvec2) f) {
     f = xy - b;
     return ivec2(int(b.x), int(b.y));
 }
-#line 434 "include/dispmap/kernels/meso.h"
+#line 450 "include/dispmap/kernels/meso.h"
 
 // Height of p above the surface, given the heights h of its cell (dmBilerp's order) and f.
 DM_TFUNC real dmHeightAbove(rvec3 p, rvec4 h, rvec2 f) {
     return p.z - dmBilerp(h, f);
 }
-#line 439 "include/dispmap/kernels/meso.h"
+#line 455 "include/dispmap/kernels/meso.h"
 
 // Linear search of relief mapping and POM: the bracket (t_prev, t) advances by dt while the
 // sample at t is above the surface; returns true when `above` (at bracket.y) is <= 0.
@@ -916,7 +949,7 @@ DM_TFUNC bool dmLinearSearchStep(DM_INOUT(rvec2) bracket, real dt, real above) {
     bracket = rvec2(bracket.y, bracket.y + dt);
     return false;
 }
-#line 449 "include/dispmap/kernels/meso.h"
+#line 465 "include/dispmap/kernels/meso.h"
 
 // Relief mapping's binary search: given `above` at the bracket's midpoint, keep the half
 // that still contains the crossing (the first end above, the second at or below).
@@ -924,7 +957,7 @@ DM_TFUNC rvec2 dmBisectStep(rvec2 bracket, real above) {
     real mid = real(0.5) * (bracket.x + bracket.y);
     return above <= real(0) ? rvec2(bracket.x, mid) : rvec2(mid, bracket.y);
 }
-#line 456 "include/dispmap/kernels/meso.h"
+#line 472 "include/dispmap/kernels/meso.h"
 
 // POM's final step (Tatarchuk 2006): where the segment between the last sample above
 // (height aboveA > 0 at bracket.x) and the first below (aboveB <= 0 at bracket.y) crosses.

@@ -79,8 +79,9 @@ DM_TFUNC bool dmMesoMarchDdm(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int cone
 // listed for it and moves on to the next voxel when none is crossed inside it. An entry names
 // its triangle and the tile of the copy next to the voxel it was listed from, so the copy next
 // to this voxel v is the triangle shifted by whole tiles (no periodic shift is searched), and
-// the test runs in v's frame (origin its lower corner) to keep float's digits. The floor z < 0
-// is solid. Writes the triangle hit (-1: the floor, or running out of iterations) and the
+// the test runs in v's frame (origin its lower corner) to keep float's digits. A crossing
+// counts within tol (1 + t) of the voxel's span: a face on a voxel wall is listed on both
+// sides, and the two frames round its t differently. The floor z < 0 is solid. Writes the triangle hit (-1: the floor, or running out of iterations) and the
 // barycentric uv there; one iteration per voxel visited, whatever its triangle count.
 DM_TFUNC bool dmMesoMarchDdmSolid(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int coneN, int maxIterations, int exitRule, real tol,
                                   DM_OUT(real) tHit, DM_OUT(int) count, DM_OUT(int) triangle, DM_OUT(rvec2) uv) {
@@ -106,7 +107,8 @@ DM_TFUNC bool dmMesoMarchDdmSolid(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int
         real dist = real(dmMesoFetchDdm(m, cone, v.x, v.y, v.z));
         if (dist <= real(0)) {
             int axis;
-            real tBest = max(dmVoxelExit(o, d, v, axis), t);
+            real slack = tol * (real(1) + t);
+            real tBest = max(dmVoxelExit(o, d, v, axis), t) + slack;
             ivec2 range = dmMesoFetchSolidRange(m, v.x, v.y, v.z);
             rvec3 ol = o - rvec3(real(v.x), real(v.y), real(v.z));
             ivec2 tileV = ivec2(dmFloorDiv(v.x, m.width), dmFloorDiv(v.y, m.height));
@@ -121,13 +123,13 @@ DM_TFUNC bool dmMesoMarchDdmSolid(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int
                 rvec3 a = rvec3(dmMesoFetchSolidTriangle(m, tri, 0)) - rvec3(real(back.x), real(back.y), real(back.z));
                 rvec3 e1 = rvec3(dmMesoFetchSolidTriangle(m, tri, 1));
                 rvec3 e2 = rvec3(dmMesoFetchSolidTriangle(m, tri, 2));
-                if (dmRayTriangle(ol, d, a, e1, e2, t, tBest, uv)) {
+                if (dmRayTriangle(ol, d, a, e1, e2, t - slack, tBest, uv)) {
                     found = tri;
                 }
             }
             if (found >= 0) {
                 triangle = found;
-                t = tBest;
+                t = max(tBest, real(0));
                 break;
             }
         }

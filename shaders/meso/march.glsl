@@ -167,6 +167,11 @@ vec3 dmMesoSolidNormal(int triangle, vec2 uv) {
     return dmSolidCornerNormal(dmMesoSolidTriangles[3 * triangle].w, dmMesoSolidTriangles[3 * triangle + 1].w,
                                dmMesoSolidTriangles[3 * triangle + 2].w, uv);
 }
+// The geometric normal of the solid's triangle, facing the ray d; n (the shading normal) turned
+// to its side (kern::dmSolidFacing).
+vec3 dmMesoSolidFacing(DmMesoSize s, int triangle, vec3 d, inout vec3 n) {
+    return dmSolidFacing(dmMesoFetchSolidTriangle(s, triangle, 1).xyz, dmMesoFetchSolidTriangle(s, triangle, 2).xyz, d, n);
+}
 // Relief mapping (binary >= 0 bisections) or POM (binary < 0); view rays only (d.z < 0; the
 // host checks), linear >= 1.
 DmMesoHit dmMarchHeightSearch(DmMesoSize s, vec3 o, vec3 d, int linear, int binary) {

@@ -111,10 +111,16 @@ void main() {
     vec3 n;
     vec3 so; // the shadow ray's origin
     if (kSolid) {
-        // The triangle's corner normals at the hit (the floor's: up), lifted along it for the shadow ray.
-        vec3 nv = entry >= 0 ? dmMesoSolidNormal(entry, bary) : vec3(0.0, 0.0, 1.0);
+        // The triangle's corner normals at the hit, turned to the ray's side (the floor's: up);
+        // the shadow ray leaves along the face's own normal.
+        vec3 nv = vec3(0.0, 0.0, 1.0);
+        vec3 gv = nv;
+        if (entry >= 0) {
+            nv = dmMesoSolidNormal(entry, bary);
+            gv = dmMesoSolidFacing(s, entry, d, nv);
+        }
         n = dmFrameVoxelNormal(nv, axisS, axisT, axisN, vpu);
-        so = p + nv * params.tol.y;
+        so = p + gv * params.tol.y;
     } else {
         vec2 f;
         ivec2 c = dmHeightCell(vec2(p.x, p.y), f);

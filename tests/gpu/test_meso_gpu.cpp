@@ -726,11 +726,17 @@ TEST_CASE("a solid renders as the CPU's solid march, with its shadows, on the pl
                                                                           glm::dvec3(img.rayOrigin[i]), glm::dvec3(img.rayDir[i]), 256, 1);
             beads += h.triangle >= 0 ? 1u : 0u;
             if (spot) continue; // the frame of a Spot pixel is not read back: the plane checks the shadow rays
-            // meso.frag's shadow ray on the CPU: from the hit lifted along the corner normals.
-            const std::size_t tri = h.triangle >= 0 ? static_cast<std::size_t>(h.triangle) : 0;
-            const glm::vec3 nv = h.triangle >= 0 ? dispmap::kern::dmSolidCornerNormal(rows[3 * tri].w, rows[3 * tri + 1].w, rows[3 * tri + 2].w, glm::vec2(h.uv))
-                                                 : glm::vec3(0, 0, 1);
-            const glm::vec3 so = glm::vec3(img.hitPoint[i]) + nv * static_cast<float>(o.shadowOffset);
+            // meso.frag's shadow ray on the CPU.
+            // meso.frag's normals: the corners' mixed, turned with the face to the ray's side;
+            // the shadow ray leaves along the face's own normal.
+            glm::vec3 nv(0, 0, 1), gv(0, 0, 1);
+            if (h.triangle >= 0) {
+                const auto tri = static_cast<std::size_t>(h.triangle);
+                nv = dispmap::kern::dmSolidCornerNormal(rows[3 * tri].w, rows[3 * tri + 1].w, rows[3 * tri + 2].w, glm::vec2(h.uv));
+                gv = dispmap::kern::dmSolidFacing(glm::vec3(maps.solid.triangleRow(tri, 1)), glm::vec3(maps.solid.triangleRow(tri, 2)),
+                                                  img.rayDir[i], nv);
+            }
+            const glm::vec3 so = glm::vec3(img.hitPoint[i]) + gv * static_cast<float>(o.shadowOffset);
             const glm::vec3 sd = dispmap::kern::dmTangentToVoxel(light, vpu);
             const dispmap::MesoSolidHit s = dispmap::marchDdmSolid<float>(dispmap::CompressedDdmView{&maps.ddm}, maps.ddm.cones, maps.solid,
                                                                           glm::dvec3(so), glm::dvec3(sd), o.shadowIterations, 1);
@@ -747,8 +753,10 @@ TEST_CASE("a solid renders as the CPU's solid march, with its shadows, on the pl
                        << " shadow rays as on the CPU, " << shaded << " shaded as on the CPU");
         CHECK(beads > hits / 5); // the beads are in view, not only the floor
         CHECK(shadowed > hits / 20);
-        if (!spot) CHECK(shaded == hits);
+        // Another device may pick another triangle at an edge (no bit parity): all of them on lavapipe.
+        if (!spot && strict) CHECK(shaded == hits);
         if (!spot && strict) CHECK(shadowSame == hits);
+        if (!spot) CHECK(shaded >= hits - hits / 50);
     }
     // What a solid cannot do: relief mapping / POM (they read heights), a normal map.
     MesoRenderOptions bad = smallScene(MesoMethod::Relief);

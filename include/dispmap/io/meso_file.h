@@ -26,6 +26,8 @@ inline constexpr std::uint32_t kMesoFileVersion = 2;
 inline constexpr std::uint64_t kMaxMesoFileBytes = std::uint64_t{4} << 30;
 
 inline void saveMesoMaps(const MesoMaps& m, const std::string& path) {
+    if (m.isSolid())
+        throw ArgumentError("saveMesoMaps('" + path + "'): the file holds a height field's maps; a solid's (mesh) are built from its mesh");
     const MesoHeightField& f = m.field;
     if (m.distance.d.size() != f.h.size() * static_cast<std::size_t>(f.layers) ||
         m.quadrics.q.size() != 3 * f.h.size() || m.ddm.width != f.width || m.ddm.height != f.height || m.ddm.layers != f.layers ||

@@ -181,6 +181,22 @@ DM_TFUNC void dmVoxelQuadric(rvec4 qa, rvec4 qb, rvec4 qc, int k, DM_OUT(rvec4) 
     }
 }
 
+// The unit geometric normal of a solid's triangle (edges e1, e2), turned to the side the ray d
+// came from (an open mesh is a two-sided sheet); the shading normal n is turned to that side
+// with it. The shadow ray leaves along the geometric normal (the interpolated one may point
+// into a neighbouring face at a silhouette).
+DM_TFUNC rvec3 dmSolidFacing(rvec3 e1, rvec3 e2, rvec3 d, DM_INOUT(rvec3) n) {
+    rvec3 g = dmCross3(e1, e2);
+    g = g * (real(1) / sqrt(dmDot3(g, g)));
+    if (dmDot3(g, d) > real(0)) {
+        g = -g;
+    }
+    if (dmDot3(n, g) < real(0)) {
+        n = -n;
+    }
+    return g;
+}
+
 // floor(i / n) for n > 0 and any i (C++ and GLSL round a negative quotient towards 0).
 DM_FUNC int dmFloorDiv(int i, int n) {
     return i >= 0 ? i / n : -((-1 - i) / n) - 1;

@@ -279,6 +279,8 @@ MesoSolidHit marchDdmSolid(const Map& map, const ConeSet& cones, const MesoSolid
                            int maxIterations = 1024, int exitRule = 1) {
     detail::checkRay(o, d, "marchDdmSolid");
     if (d.z > 0 && !cones.isotropic && !cones.shadow) throw ArgumentError("marchDdmSolid: an upward (shadow) ray needs shadow cones");
+    if (map.m->width != s.width || map.m->height != s.height || map.m->layers != s.layers || s.entryStart.size() != s.voxelSolid.size() + 1)
+        throw ArgumentError("marchDdmSolid: the map and the solid differ in size (buildMesoSolidMaps builds both)");
     kern::DmMesoMapsT<real> maps;
     maps.layers = s.layers;
     maps.width = s.width;
@@ -382,10 +384,9 @@ inline MesoMaps buildMesoMaps(const MesoHeightField& field, const MesoMapOptions
 /// as buildMesoMaps compresses) and, when options.distance, Donnelly's map of it; no quadrics
 /// (the DDM march tests the triangles of its 0 voxels), the field holds only the sizes. The
 /// marchers that read heights (relief mapping, POM) do not apply.
-inline MesoMaps buildMesoSolidMaps(const MesoSolid& solid, const MesoMapOptions& options = {}) {
+inline MesoMaps buildMesoSolidMaps(MesoSolid solid, const MesoMapOptions& options = {}) {
     if (solid.width <= 0 || solid.entryStart.empty()) throw ArgumentError("solid mesostructure maps: the solid is empty (mesoSolidFromMesh builds one)");
     MesoMaps m;
-    m.solid = solid;
     m.field.width = solid.width;
     m.field.height = solid.height;
     m.field.layers = solid.layers;
@@ -401,6 +402,7 @@ inline MesoMaps buildMesoSolidMaps(const MesoSolid& solid, const MesoMapOptions&
     m.ddm = compressDdm(dense, options.block, options.compressionSpread);
     m.quadrics.width = solid.width;
     m.quadrics.height = solid.height;
+    m.solid = std::move(solid);
     return m;
 }
 

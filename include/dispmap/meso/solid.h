@@ -101,9 +101,14 @@ struct MesoSolidTile {
     double size = 1;
 };
 
-/// Largest distance, in tiles, of a mesh's vertices from its tile (mesoSolidFromMesh): a
-/// triangle is copied once per tile it spans.
+/// Largest distance, in tiles, of a mesh's vertices from its tile's sides and below its floor
+/// (mesoSolidFromMesh): a triangle is copied once per tile it spans, and an entry holds its
+/// copy's tile in four bits (MesoSolid::entryWord).
 inline constexpr double kMaxSolidTileReach = 4;
+static_assert(kMaxSolidTileReach + 2 <= 7, "MesoSolid::entryWord holds an entry's tile, -8 .. 7, in four bits");
+/// Most triangles one voxel may list: a pixel's march tests every triangle of each 0 voxel it
+/// meets, so a voxel with thousands would stall the GPU (a finer grid or a coarser mesh is the cure).
+inline constexpr std::size_t kMaxSolidVoxelTriangles = 1024;
 
 namespace detail {
 inline void checkSolidMesh(const std::vector<glm::dvec3>& vertices, const std::vector<std::array<int, 3>>& triangles) {
@@ -120,13 +125,14 @@ inline void checkSolidMesh(const std::vector<glm::dvec3>& vertices, const std::v
 /// Voxelises a closed mesh placed by `tile` into width x height x layers voxels with sub^3
 /// sub-voxels each. ArgumentError for no triangles, indices out of range, non-finite vertices
 /// or tile, a mesh that rises above the layers or reaches more than kMaxSolidTileReach tiles
-/// beyond its tile's sides.
+/// beyond its tile's sides or below its floor, more than 2^24 triangles, a voxel crossed by
+/// more than kMaxSolidVoxelTriangles triangles, more than 2^31 - 1 voxels and entries.
 inline MesoSolid mesoSolidFromMesh(const std::vector<glm::dvec3>& vertices, const std::vector<std::array<int, 3>>& triangles, int width,
                                    int height, int layers, const MesoSolidTile& tile, int sub = 2) {
     detail::checkMesoSize("mesh mesostructure", width, height, layers);
     if (sub < 1 || sub > 8) throw ArgumentError("mesh mesostructure: sub-voxels " + std::to_string(sub) + " not in 1..8");
     detail::checkSolidMesh(vertices, triangles);
-    if (triangles.size() >= std::size_t{1} << 24) throw ArgumentError("mesh mesostructure: more than 2^24 triangles");
+    if (triangles.size() > std::size_t{1} << 24) throw ArgumentError("mesh mesostructure: more than 2^24 triangles");
     if (!std::isfinite(tile.corner.x + tile.corner.y + tile.corner.z) || !(tile.size > 0) || !std::isfinite(tile.size))
         throw ArgumentError("mesh mesostructure: the tile needs a finite corner and a size > 0");
     const double scale = width / tile.size;
@@ -134,13 +140,13 @@ inline MesoSolid mesoSolidFromMesh(const std::vector<glm::dvec3>& vertices, cons
     for (const glm::dvec3& v : vertices) {
         const glm::dvec3 q = (v - tile.corner) * scale;
         top = std::max(top, q.z);
-        beyond = std::max({beyond, -q.x / width, q.x / width - 1, -q.y / height, q.y / height - 1});
+        beyond = std::max({beyond, -q.x / width, q.x / width - 1, -q.y / height, q.y / height - 1, -q.z / width});
     }
     if (top > layers)
         throw ArgumentError("mesh mesostructure: the mesh is " + std::to_string(top) + " voxels tall, more than " + std::to_string(layers) +
                             " layers");
     if (!(beyond <= kMaxSolidTileReach))
-        throw ArgumentError("mesh mesostructure: the mesh reaches " + std::to_string(beyond) + " tiles beyond its tile's sides (at most " +
+        throw ArgumentError("mesh mesostructure: the mesh reaches " + std::to_string(beyond) + " tiles beyond its tile's sides or below its floor (at most " +
                             std::to_string(static_cast<int>(kMaxSolidTileReach)) + ")");
     MesoSolid s;
     s.width = width;
@@ -187,13 +193,14 @@ inline MesoSolid mesoSolidFromMesh(const std::vector<glm::dvec3>& vertices, cons
             // A line through a shared edge or vertex meets each triangle there: one crossing.
             z.erase(std::unique(z.begin(), z.end(), [](double p, double q) { return q - p <= 1e-9; }), z.end());
             for (std::size_t k = 0; k + 1 < z.size(); k += 2)
-                for (int iz = std::max(0, static_cast<int>(std::floor(z[k] / h))); iz < fz && (iz + 0.5) * h <= z[k + 1]; ++iz)
+                for (int iz = static_cast<int>(std::clamp(std::floor(z[k] / h), 0.0, double(fz))); iz < fz && (iz + 0.5) * h <= z[k + 1]; ++iz)
                     if ((iz + 0.5) * h >= z[k]) mark(x, y, iz);
         }
     // Surface: sub-voxels (and voxels) the triangle's plane passes near, inside its box.
     std::vector<std::vector<MesoSolidEntry>> lists(static_cast<std::size_t>(width) * static_cast<std::size_t>(height) *
                                                    static_cast<std::size_t>(layers));
     s.normals.assign(s.vertices.size(), glm::dvec3(0));
+    std::size_t entryCount = 0;
     for (std::size_t ti = 0; ti < s.triangles.size(); ++ti) {
         const auto& t = s.triangles[ti];
         const glm::dvec3 &a = s.vertices[static_cast<std::size_t>(t[0])], &b = s.vertices[static_cast<std::size_t>(t[1])],
@@ -204,8 +211,13 @@ inline MesoSolid mesoSolidFromMesh(const std::vector<glm::dvec3>& vertices, cons
         for (int i : t) s.normals[static_cast<std::size_t>(i)] += n; // |n| is twice the area
         n /= nl;
         const glm::dvec3 tlo = glm::min(a, glm::min(b, c)), thi = glm::max(a, glm::max(b, c));
+        // The cells the triangle's box meets, closed: a face on a cell wall (z = k, the top
+        // z = layers, a side x = k) belongs to the cells on both sides of it. z is clamped to
+        // the slab (below the floor is solid anyway) before it becomes an int.
         const auto visit = [&](double cell, const auto& fn) {
-            const glm::ivec3 i0(glm::floor(tlo / cell)), i1(glm::floor(thi / cell));
+            const double cellsZ = layers / cell;
+            const glm::ivec3 i0(std::ceil(tlo.x / cell) - 1, std::ceil(tlo.y / cell) - 1, std::clamp(std::ceil(tlo.z / cell) - 1, -1.0, cellsZ));
+            const glm::ivec3 i1(std::floor(thi.x / cell), std::floor(thi.y / cell), std::clamp(std::floor(thi.z / cell), -1.0, cellsZ));
             const double reach = 0.5 * std::sqrt(3.0) * cell;
             for (int z = i0.z; z <= i1.z; ++z)
                 for (int y = i0.y; y <= i1.y; ++y)
@@ -214,7 +226,15 @@ inline MesoSolid mesoSolidFromMesh(const std::vector<glm::dvec3>& vertices, cons
         };
         visit(h, mark);
         visit(1.0, [&](int x, int y, int z) {
-            if (z >= 0 && z < layers) lists[s.voxelIndex(x, y, z)].push_back({static_cast<int>(ti), glm::ivec3(x, y, z)});
+            if (z < 0 || z >= layers) return;
+            std::vector<MesoSolidEntry>& list = lists[s.voxelIndex(x, y, z)];
+            if (list.size() >= kMaxSolidVoxelTriangles)
+                throw ArgumentError("mesh mesostructure: voxel (" + std::to_string(detail::wrapIndex(x, width)) + ", " +
+                                    std::to_string(detail::wrapIndex(y, height)) + ", " + std::to_string(z) + ") is crossed by more than " +
+                                    std::to_string(kMaxSolidVoxelTriangles) + " triangles: more voxels (size, layers) or a coarser mesh");
+            if (++entryCount >= (std::size_t{1} << 31) - lists.size())
+                throw ArgumentError("mesh mesostructure: more than 2^31 - 1 voxels and voxel-triangle entries");
+            list.push_back({static_cast<int>(ti), glm::ivec3(x, y, z)});
         });
     }
     for (glm::dvec3& n : s.normals) {
@@ -227,8 +247,6 @@ inline MesoSolid mesoSolidFromMesh(const std::vector<glm::dvec3>& vertices, cons
         s.entries.insert(s.entries.end(), l.begin(), l.end());
     }
     s.entryStart.push_back(static_cast<std::uint32_t>(s.entries.size()));
-    if (s.entryStart.size() + s.entries.size() > std::size_t{1} << 31)
-        throw ArgumentError("mesh mesostructure: more than 2^31 voxels and voxel-triangle entries");
     s.voxelSolid.assign(lists.size(), 0);
     for (int z = 0; z < fz; ++z)
         for (int y = 0; y < fh; ++y)
@@ -274,6 +292,8 @@ struct PackedSolid {
     std::vector<glm::uvec4> triangles;
 };
 inline PackedSolid packSolid(const MesoSolid& s) {
+    if (s.normals.size() != s.vertices.size() || s.entryStart.empty() || s.entryStart.back() != s.entries.size())
+        throw ArgumentError("packSolid: the solid's normals or lists are missing (build it with mesoSolidFromMesh)");
     PackedSolid p;
     const auto offset = static_cast<std::uint32_t>(s.entryStart.size());
     p.lists.reserve(s.entryStart.size() + s.entries.size());

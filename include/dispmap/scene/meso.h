@@ -435,7 +435,7 @@ inline void parseMesoPart(const nlohmann::json& m, const std::string& baseDir, M
     if (s.heightImage.empty() && s.function != "grating" && s.function != "waves")
         throw fail("'" + where + ".function': unknown function '" + mesoExcerpt(s.function) + "' (grating, waves)");
     s.size = mesoNumber(m, "size", s.heightImage.empty() ? 64 : 0, name, where + ".");
-    if (!s.mesh.empty() && s.size == 0) throw fail("'" + where + ".size' must be given for a 'mesh' (the voxels per side of a tile)");
+    if (!s.mesh.empty() && s.size == 0) throw fail("'" + where + ".size' 0: a 'mesh' needs the voxels per side of its tile");
     s.layers = mesoNumber(m, "layers", s.layers, name, where + ".");
     s.depth = mesoNumber(m, "depth", s.depth, name, where + ".");
     s.block = mesoNumber(m, "block", s.block, name, where + ".");
