@@ -148,8 +148,9 @@ double gpuFrameMs(vulkan::Context& ctx, const MesoCamera& camera, const MesoMaps
 void compressionRow(std::ostream& out, const std::string& scene, const std::string& cones, std::size_t dense, const CompressedDdm& c) {
     out << std::fixed << "  " << std::left << std::setw(10) << scene << std::setw(11) << cones << std::right << std::setw(9)
         << dense / 1024 << " KiB" << std::setw(8) << c.grid.size() * 4 / 1024 << " KiB" << std::setw(8) << c.atlas.size() * 4 / 1024
-        << " KiB" << std::setw(8) << std::setprecision(1) << c.ratio() << "x" << std::setw(9)
-        << 100.0 * static_cast<double>(c.atlasBlocks()) / static_cast<double>(c.grid.size()) << "%\n";
+        << " KiB" << std::setw(8) << c.planes.size() * 4 / 1024 << " KiB" << std::setw(8) << std::setprecision(1) << c.ratio() << "x"
+        << std::setw(8) << 100.0 * static_cast<double>(c.atlasBlocks()) / static_cast<double>(c.grid.size()) << "%" << std::setw(8)
+        << 100.0 * static_cast<double>(c.planeBlocks()) / static_cast<double>(c.grid.size()) << "%\n";
 }
 
 void printHeader(std::ostream& out) {
@@ -531,8 +532,10 @@ void printMesoTable(std::ostream& out, const MesoTableArgs& args) {
             << std::setprecision(1) << kDefaultCompressionSpread << ") / dense: " << std::setprecision(3) << g.ddm4 / std::max(g.dense4, 1e-9)
             << " (goal <= 1.05)\n";
     out << sparseGoal.str() << "\n";
-    out << "\nCompression (Table 3: uncompressed DDM vs lookup grid + atlas, blocks of 4^3):\n"
-        << "  scene     cones      uncompr.      grid    atlas   ratio  surface blocks\n"
+    out << "\nCompression (Table 3: uncompressed DDM vs lookup grid + atlas + planes, blocks of 4^3; the shares of blocks stored whole and as planes):\n"
+        << "  " << std::left << std::setw(10) << "scene" << std::setw(11) << "cones" << std::right << std::setw(13) << "uncompr." << std::setw(12)
+        << "grid" << std::setw(12) << "atlas" << std::setw(12) << "planes" << std::setw(9) << "ratio" << std::setw(9) << "whole" << std::setw(9)
+        << "planes" << "\n"
         << compression.str();
     csv.commit();
 }
