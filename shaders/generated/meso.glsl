@@ -312,6 +312,18 @@ DM_TFUNC real dmPlaneHit(rvec3 o, rvec3 d, real zPlane) {
     return (zPlane - o.z) / d.z;
 }
 
+// A DDM march against the slab (dmSlabStatus) in voxel v: false inside (march on); true when
+// the ray has left it, with below = it went under the floor (the solid: a hit) and t moved
+// onto the floor plane z = 0 when it was going down.
+DM_TFUNC bool dmDdmLeftSlab(ivec3 v, int L, rvec3 o, rvec3 d, DM_INOUT(real) t, DM_OUT(bool) below) {
+    int slab = dmSlabStatus(v, L);
+    below = slab == 1;
+    if (below && d.z < real(0)) {
+        t = max(t, dmPlaneHit(o, d, real(0)));
+    }
+    return slab != 0;
+}
+
 // --- Direction cones (Mehra & Kumar §3.1) ---------------------------------------------------
 // Cone of a voxel-space direction d among m x n cones per hemisphere: azimuth theta (from +x
 // towards +y) in m equal sectors, m in {1, 2, 4, 8}; the angle below (view rays, d.z <= 0) or
@@ -806,6 +818,19 @@ DM_TFUNC real dmPlaneHit(rvec3 o, rvec3 d, real zPlane) {
 }
 #line 329 "include/dispmap/kernels/meso.h"
 
+// A DDM march against the slab (dmSlabStatus) in voxel v: false inside (march on); true when
+// the ray has left it, with below = it went under the floor (the solid: a hit) and t moved
+// onto the floor plane z = 0 when it was going down.
+DM_TFUNC bool dmDdmLeftSlab(ivec3 v, int L, rvec3 o, rvec3 d, DM_INOUT(real) t, DM_OUT(bool) below) {
+    int slab = dmSlabStatus(v, L);
+    below = slab == 1;
+    if (below && d.z < real(0)) {
+        t = max(t, dmPlaneHit(o, d, real(0)));
+    }
+    return slab != 0;
+}
+#line 341 "include/dispmap/kernels/meso.h"
+
 // --- Direction cones (Mehra & Kumar §3.1) ---------------------------------------------------
 // Cone of a voxel-space direction d among m x n cones per hemisphere: azimuth theta (from +x
 // towards +y) in m equal sectors, m in {1, 2, 4, 8}; the angle below (view rays, d.z <= 0) or
@@ -834,7 +859,7 @@ DM_TFUNC int dmConeIndex(rvec3 d, int m, int n) {
     int hemisphere = d.z > real(0) ? 1 : 0;
     return (hemisphere * n + band) * m + sector;
 }
-#line 358 "include/dispmap/kernels/meso.h"
+#line 370 "include/dispmap/kernels/meso.h"
 
 // --- Donnelly's distance map ----------------------------------------------------------------
 // Tangent-space direction (x along the texture's u, y along v, z along the normal, any
@@ -845,7 +870,7 @@ DM_TFUNC rvec3 dmTangentToVoxel(rvec3 t, rvec3 voxelsPerUnit) {
     rvec3 v = rvec3(t.x * voxelsPerUnit.x, t.y * voxelsPerUnit.y, t.z * voxelsPerUnit.z);
     return v * (real(1) / sqrt(dmDot3(v, v)));
 }
-#line 368 "include/dispmap/kernels/meso.h"
+#line 380 "include/dispmap/kernels/meso.h"
 
 // Samples of Donnelly's map sit at (i, j, k + 1/2): texel grid points, layer centres. The
 // sample cell of p (its lowest sample (i, j, k), unwrapped) and the trilinear fractions f;
@@ -858,7 +883,7 @@ DM_TFUNC ivec3 dmDistanceSampleCell(rvec3 p, int L, DM_OUT(rvec3) f) {
     f = rvec3(p.x - fx, p.y - fy, zc - real(k));
     return ivec3(int(fx), int(fy), k);
 }
-#line 380 "include/dispmap/kernels/meso.h"
+#line 392 "include/dispmap/kernels/meso.h"
 
 // Trilinear interpolation: lo and hi the samples of layers k and k + 1 in dmBilerp's order
 // ((i, j), (i+1, j), (i+1, j+1), (i, j+1)).
@@ -866,7 +891,7 @@ DM_TFUNC real dmTrilerp(rvec4 lo, rvec4 hi, rvec3 f) {
     rvec2 xy = rvec2(f.x, f.y);
     return dmBilerp(lo, xy) * (real(1) - f.z) + dmBilerp(hi, xy) * f.z;
 }
-#line 387 "include/dispmap/kernels/meso.h"
+#line 399 "include/dispmap/kernels/meso.h"
 
 // One sphere-tracing step (Hart 1996; Donnelly §8.3) with the interpolated distance `dist`
 // at o + t d: returns 1 when converged (dist <= eps; a fixed iteration count passes eps < 0),
@@ -887,7 +912,7 @@ DM_TFUNC int dmSphereTraceStep(DM_INOUT(real) t, real dist, real eps, rvec3 o, r
     }
     return 0;
 }
-#line 407 "include/dispmap/kernels/meso.h"
+#line 419 "include/dispmap/kernels/meso.h"
 
 // --- Conservative (directional) distance maps -----------------------------------------------
 // One step of Algorithm 3.1 for a ray at o + t d in voxel v (inside the slab). `dist` is v's
@@ -923,7 +948,7 @@ DM_TFUNC int dmDdmStep(DM_INOUT(real) t, DM_INOUT(ivec3) v, real dist, rvec4 qa,
     v = w;
     return 0;
 }
-#line 442 "include/dispmap/kernels/meso.h"
+#line 454 "include/dispmap/kernels/meso.h"
 
 // --- Relief mapping and parallax occlusion mapping (height-field baselines) ----------------
 // Texel cell of xy (unwrapped) and the bilinear fraction inside it.
@@ -932,13 +957,13 @@ DM_TFUNC ivec2 dmHeightCell(rvec2 xy, DM_OUT(rvec2) f) {
     f = xy - b;
     return ivec2(int(b.x), int(b.y));
 }
-#line 450 "include/dispmap/kernels/meso.h"
+#line 462 "include/dispmap/kernels/meso.h"
 
 // Height of p above the surface, given the heights h of its cell (dmBilerp's order) and f.
 DM_TFUNC real dmHeightAbove(rvec3 p, rvec4 h, rvec2 f) {
     return p.z - dmBilerp(h, f);
 }
-#line 455 "include/dispmap/kernels/meso.h"
+#line 467 "include/dispmap/kernels/meso.h"
 
 // Linear search of relief mapping and POM: the bracket (t_prev, t) advances by dt while the
 // sample at t is above the surface; returns true when `above` (at bracket.y) is <= 0.
@@ -949,7 +974,7 @@ DM_TFUNC bool dmLinearSearchStep(DM_INOUT(rvec2) bracket, real dt, real above) {
     bracket = rvec2(bracket.y, bracket.y + dt);
     return false;
 }
-#line 465 "include/dispmap/kernels/meso.h"
+#line 477 "include/dispmap/kernels/meso.h"
 
 // Relief mapping's binary search: given `above` at the bracket's midpoint, keep the half
 // that still contains the crossing (the first end above, the second at or below).
@@ -957,7 +982,7 @@ DM_TFUNC rvec2 dmBisectStep(rvec2 bracket, real above) {
     real mid = real(0.5) * (bracket.x + bracket.y);
     return above <= real(0) ? rvec2(bracket.x, mid) : rvec2(mid, bracket.y);
 }
-#line 472 "include/dispmap/kernels/meso.h"
+#line 484 "include/dispmap/kernels/meso.h"
 
 // POM's final step (Tatarchuk 2006): where the segment between the last sample above
 // (height aboveA > 0 at bracket.x) and the first below (aboveB <= 0 at bracket.y) crosses.

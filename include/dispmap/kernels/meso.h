@@ -327,6 +327,18 @@ DM_TFUNC real dmPlaneHit(rvec3 o, rvec3 d, real zPlane) {
     return (zPlane - o.z) / d.z;
 }
 
+// A DDM march against the slab (dmSlabStatus) in voxel v: false inside (march on); true when
+// the ray has left it, with below = it went under the floor (the solid: a hit) and t moved
+// onto the floor plane z = 0 when it was going down.
+DM_TFUNC bool dmDdmLeftSlab(ivec3 v, int L, rvec3 o, rvec3 d, DM_INOUT(real) t, DM_OUT(bool) below) {
+    int slab = dmSlabStatus(v, L);
+    below = slab == 1;
+    if (below && d.z < real(0)) {
+        t = max(t, dmPlaneHit(o, d, real(0)));
+    }
+    return slab != 0;
+}
+
 // --- Direction cones (Mehra & Kumar §3.1) ---------------------------------------------------
 // Cone of a voxel-space direction d among m x n cones per hemisphere: azimuth theta (from +x
 // towards +y) in m equal sectors, m in {1, 2, 4, 8}; the angle below (view rays, d.z <= 0) or

@@ -72,12 +72,9 @@ DM_TFUNC bool dmMesoMarchDdm(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int cone
     real t = real(0);
     ivec3 v = dmVoxelAt(o, d);
     for (int i = 0; i < maxIterations; ++i) {
-        int slab = dmSlabStatus(v, m.layers);
-        if (slab != 0) {
-            hit = slab == 1;
-            if (hit && d.z < real(0)) {
-                t = max(t, dmPlaneHit(o, d, real(0)));
-            }
+        bool below;
+        if (dmDdmLeftSlab(v, m.layers, o, d, t, below)) {
+            hit = below;
             break;
         }
         count = count + 1;
@@ -120,12 +117,9 @@ DM_TFUNC bool dmMesoMarchDdmSolid(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int
     rvec4 none = rvec4(real(0));
     rvec4 miss = rvec4(real(0), real(-1), real(0), real(0)); // Q = -1: a 0 voxel without a crossing is left
     for (int i = 0; i < maxIterations; ++i) {
-        int slab = dmSlabStatus(v, m.layers);
-        if (slab != 0) {
-            hit = slab == 1;
-            if (hit && d.z < real(0)) {
-                t = max(t, dmPlaneHit(o, d, real(0)));
-            }
+        bool below;
+        if (dmDdmLeftSlab(v, m.layers, o, d, t, below)) {
+            hit = below;
             break;
         }
         count = count + 1;

@@ -304,12 +304,7 @@ inline MesoHit marchSolidReference(const MesoSolid& s, const glm::dvec3& o, cons
     double t = 0;
     glm::ivec3 v = kern::dmVoxelAt(o, d);
     for (int i = 0; i < maxVoxels; ++i) {
-        const int slab = kern::dmSlabStatus(v, s.layers);
-        if (slab != 0) {
-            r.hit = slab == 1;
-            if (r.hit && d.z < 0) t = std::max(t, kern::dmPlaneHit(o, d, 0.0));
-            break;
-        }
+        if (kern::dmDdmLeftSlab(v, s.layers, o, d, t, r.hit)) break;
         ++r.iterations;
         int axis;
         const double tExit = kern::dmVoxelExit(o, d, v, axis);
