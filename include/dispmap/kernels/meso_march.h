@@ -103,8 +103,9 @@ DM_TFUNC bool dmMesoMarchDdm(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int cone
 // to this voxel v is the triangle shifted by whole tiles (no periodic shift is searched), and
 // the test runs in v's frame (origin its lower corner) to keep float's digits. A crossing
 // counts within tol (1 + t) of the voxel's span: a face on a voxel wall is listed on both
-// sides, and the two frames round its t differently. The floor z < 0 is solid. Writes the triangle hit (-1: the floor, or running out of iterations) and the
-// barycentric uv there; one iteration per voxel visited, whatever its triangle count.
+// sides, and the two frames round its t differently. The floor z < 0 is solid. Writes the
+// triangle hit (-1: the floor, or running out of iterations) and the barycentric uv there;
+// one iteration per voxel visited, whatever its triangle count.
 DM_TFUNC bool dmMesoMarchDdmSolid(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int coneN, int maxIterations, int exitRule, real tol,
                                   DM_OUT(real) tHit, DM_OUT(int) count, DM_OUT(int) triangle, DM_OUT(rvec2) uv) {
     int cone = dmConeIndex(d, coneM, coneN);
