@@ -91,7 +91,6 @@ DM_TFUNC bool dmMesoMarchDdmSolid(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int
     real t = real(0);
     ivec3 v = dmVoxelAt(o, d);
     rvec4 none = rvec4(real(0));
-    rvec4 miss = rvec4(real(0), real(-1), real(0), real(0)); // Q = -1: a 0 voxel without a crossing is left
     for (int i = 0; i < maxIterations; ++i) {
         bool below;
         if (dmDdmLeftSlab(v, m.layers, o, d, t, below)) {
@@ -102,8 +101,9 @@ DM_TFUNC bool dmMesoMarchDdmSolid(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int
         real dist = real(dmMesoFetchDdm(m, cone, v.x, v.y, v.z));
         if (dist <= real(0)) {
             int axis;
+            real tExit = max(dmVoxelExit(o, d, v, axis), t);
             real slack = tol * (real(1) + t);
-            real tBest = max(dmVoxelExit(o, d, v, axis), t) + slack;
+            real tBest = tExit + slack;
             ivec2 range = dmMesoFetchSolidRange(m, v.x, v.y, v.z);
             rvec3 ol = o - rvec3(real(v.x), real(v.y), real(v.z));
             ivec2 tileV = ivec2(dmFloorDiv(v.x, m.width), dmFloorDiv(v.y, m.height));
@@ -127,8 +127,11 @@ DM_TFUNC bool dmMesoMarchDdmSolid(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int
                 t = max(tBest, real(0));
                 break;
             }
+            t = tExit; // no crossing inside: on to the next voxel (Algorithm 3.3)
+            v = dmVoxelStep(v, d, axis);
+        } else {
+            dmDdmStep(t, v, dist, none, none, none, rvec3(real(0)), o, d, exitRule, tol);
         }
-        dmDdmStep(t, v, dist, none, none, miss, rvec3(real(0)), o, d, exitRule, tol);
     }
     tHit = t;
     return hit;
