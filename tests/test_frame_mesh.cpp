@@ -233,6 +233,114 @@ TEST_CASE("a frame mesh's frames are its surface's derivatives in the texture's 
     }
 }
 
+TEST_CASE("dmShellExit: where a ray leaves the curved shell through its top", "[meso][frame][silhouette]") {
+    SECTION("a cylinder's exact shell: a ray from the top leaves where it crosses the circle again") {
+        // Radius R, tiles of T world units along the circle: n . P_ss = -T^2 / R, the most convex
+        // principal curvature -1 / R. A voxel offset (x, z) is T x / W along the circle's tangent
+        // and z / vpu.z along n: the ray leaves the disc of radius R at
+        // t = -2 R d_n / (d_a^2 + d_n^2), d_a = d.x T / W, d_n = d.z / vpu.z.
+        const double R = 2.0, T = 0.3;
+        const glm::dvec3 vpu(64.0, 64.0, 16.0 / 0.05), o(10.0, 20.0, 16.0);
+        const glm::dvec4 shape(-T * T / R, 0.0, 0.0, -1.0 / R);
+        for (const glm::dvec3 d : {glm::dvec3(1, 0, -0.1), glm::dvec3(1, 0, -30.0), glm::dvec3(-3, 0, -0.02), glm::dvec3(0.2, 0, -1.0)}) {
+            const double da = d.x * T / vpu.x, dn = d.z / vpu.z;
+            CHECK(kern::dmShellExit(o, d, o, shape, vpu, 16.0) == Approx(-2.0 * R * dn / (da * da + dn * dn)).epsilon(1e-12));
+            // The osculating paraboloid alone (m = 0) leaves later: 2 d.z / (d^T K d).
+            const double kxx = shape.x * vpu.z / (vpu.x * vpu.x);
+            CHECK(kern::dmShellExit(o, d, o, glm::dvec4(glm::dvec3(shape), 0.0), vpu, 16.0) == Approx(2.0 * d.z / (kxx * d.x * d.x)).epsilon(1e-12));
+        }
+        // Along the cylinder's axis only the vertical term bends: straight down, the ray leaves
+        // the disc at its far side, 2 R deep; a ray going up leaves at once.
+        CHECK(kern::dmShellExit(o, glm::dvec3(0, 0, -1), o, shape, vpu, 16.0) == Approx(2.0 * R * vpu.z).epsilon(1e-12));
+        CHECK(kern::dmShellExit(o, glm::dvec3(0, 1, -0.1), o, glm::dvec4(glm::dvec3(shape), 0.0), vpu, 16.0) == -1.0);
+        CHECK(kern::dmShellExit(o, glm::dvec3(1, 0, 0.1), o, shape, vpu, 16.0) == 0.0);
+        // Concave (the inside of the cylinder): the top rises over a descending ray, no exit.
+        CHECK(kern::dmShellExit(o, glm::dvec3(1, 0, -0.1), o, glm::dvec4(-glm::dvec3(shape), 0.0), vpu, 16.0) == -1.0);
+    }
+    SECTION("random shells and rays, at both precisions, against a fine walk of the top's height over the ray") {
+        std::mt19937 g(17);
+        std::uniform_real_distribution<double> u(-1.0, 1.0);
+        int exits = 0, none = 0;
+        for (int k = 0; k < 4000; ++k) {
+            const glm::dvec3 vpu(std::exp(2.0 + 2.0 * u(g)), std::exp(2.0 + 2.0 * u(g)), std::exp(4.0 + 2.0 * u(g)));
+            const glm::dvec4 shape(0.02 * u(g), 0.02 * u(g), 0.02 * u(g), (k & 2) ? -0.5 * (1.0 + u(g)) : 0.0);
+            const glm::dvec3 o(8.0 * u(g), 8.0 * u(g), 16.0);
+            // From the entry, or from a point below the top (a shadow ray's start).
+            const glm::dvec3 p = (k & 1) ? o : o + glm::dvec3(4.0 * u(g), 4.0 * u(g), -8.0 - 7.0 * u(g));
+            const glm::dvec3 d(u(g), u(g), 0.5 * u(g));
+            const double kxx = shape.x * vpu.z / (vpu.x * vpu.x), kxy = shape.y * vpu.z / (vpu.x * vpu.y), kyy = shape.z * vpu.z / (vpu.y * vpu.y);
+            const auto top = [&](double t) {
+                const glm::dvec2 e = glm::dvec2(p + d * t) - glm::dvec2(o);
+                const double z = p.z + d.z * t - 16.0;
+                return 0.5 * (kxx * e.x * e.x + 2.0 * kxy * e.x * e.y + kyy * e.y * e.y) + 0.5 * (shape.w / vpu.z) * z * z - z;
+            };
+            if (!(top(0.0) >= 0)) continue; // a start above the top (the kernel takes it as on it)
+            const double t = kern::dmShellExit(p, d, o, shape, vpu, 16.0);
+            const float tf = kern::dmShellExit(glm::vec3(p), glm::vec3(d), glm::vec3(o), glm::vec4(shape), glm::vec3(vpu), 16.0f);
+            // The walk: the first step at which the top's height over the ray turns negative.
+            double walk = -1;
+            const double step = 1e-3;
+            for (int i = 1; i <= 200000; ++i)
+                if (top(i * step) < 0) {
+                    walk = i * step;
+                    break;
+                }
+            INFO("k " << k << " t " << t << " walk " << walk);
+            if (walk < 0) {
+                // Never out within the walk: either no exit, or one beyond it.
+                CHECK((t < 0 || t > 199.0));
+                ++none;
+                continue;
+            }
+            ++exits;
+            // Within a step of the walk, unless the ray only touched the top (a double root).
+            CHECK(t <= walk + 1e-9);
+            CHECK(t >= walk - step - 1e-9 * walk);
+            // Float within its rounding of the double answer (the roots' conditioning is at
+            // most 1 / |g'| at the root, and g' is far from 0 for these rays but for a few).
+            CHECK(std::abs(double(tf) - t) <= 1e-3 * std::max(1.0, t));
+        }
+        INFO(exits << " exits, " << none << " none");
+        CHECK(exits > 500);
+        CHECK(none > 500);
+    }
+}
+
+TEST_CASE("a frame mesh's shape is its surface's second fundamental form in the texture's coordinates", "[meso][frame][silhouette]") {
+    // Face placement with repeat (2, 3): (s, t) = (2 u, 3 v), so n . P_ss = n . f_uu / 4 and so
+    // on, against OpenSubdiv's second derivatives of the limit surface (no displacement).
+    const Built b(dmtest::shape("catmark_torus"), 3.0);
+    FrameMeshOptions fo{FramePlacement::Face, {2.0, 3.0}, NormalMode::Accurate};
+    CHECK_FALSE(buildFrameMesh(b.surface, b.tess, nullptr, fo).shaped);
+    fo.shape = true;
+    const FrameMesh fm = buildFrameMesh(b.surface, b.tess, nullptr, fo);
+    CHECK(fm.shaped);
+    double worst = 0, scale = 0, worstK = 0, scaleK = 0;
+    for (std::size_t i = 0; i < fm.corners.size(); i += 7) {
+        const glm::dvec2 p = b.tess.triangleUVs[i / 3][i % 3];
+        const BaseSample<double> s = b.base.evaluate<double>(b.tess.triangleFaces[i / 3], p.x, p.y, true);
+        const glm::dvec3 n = glm::normalize(glm::cross(s.du, s.dv));
+        const glm::dvec3 want(glm::dot(n, s.duu) / 4.0, glm::dot(n, s.duv) / 6.0, glm::dot(n, s.dvv) / 9.0);
+        worst = std::max(worst, glm::length(glm::dvec3(fm.corners[i].shape) - want));
+        scale = std::max(scale, glm::length(want));
+        // The most convex principal curvature: the least eigenvalue of G^-1 II in (u, v).
+        const glm::dmat2 gm(glm::dot(s.du, s.du), glm::dot(s.du, s.dv), glm::dot(s.du, s.dv), glm::dot(s.dv, s.dv));
+        const glm::dmat2 ii(glm::dot(n, s.duu), glm::dot(n, s.duv), glm::dot(n, s.duv), glm::dot(n, s.dvv));
+        const glm::dmat2 so = glm::inverse(gm) * ii;
+        const double half = 0.5 * (so[0][0] + so[1][1]);
+        const double k1 = half - std::sqrt(std::max(half * half - glm::determinant(so), 0.0));
+        worstK = std::max(worstK, std::abs(fm.corners[i].shape.w - std::min(k1, 0.0)));
+        scaleK = std::max(scaleK, std::abs(k1));
+    }
+    INFO("worst " << worst << " of " << scale << ", principal curvature " << worstK << " of " << scaleK);
+    // Differences of the normal with h = 1e-4 (one-sided at the face's edges: O(h) there, the
+    // normal's second derivative times 1e-4) against exact second derivatives.
+    CHECK(worst < 1e-3 * scale);
+    CHECK(worstK < 1e-3 * scaleK);
+    // A torus is convex on its outside: somewhere both directions are negative.
+    CHECK(std::any_of(fm.corners.begin(), fm.corners.end(), [](const FrameVertex& v) { return v.shape.x < 0 && v.shape.z < 0; }));
+}
+
 TEST_CASE("frame meshes of hard shapes: creases, boundaries, poles, N-gons", "[meso][frame]") {
     std::vector<std::string> shapes = {"catmark_cube", "catmark_pole8", "catmark_helmet", "catmark_bishop", "catmark_tent_creases0", "catmark_xord_boundary",
                                        "catmark_dart_edgecorner", "catmark_cube_creases0", "catmark_pyramid", "catmark_gregory_test2",
@@ -347,6 +455,31 @@ TEST_CASE("a mesostructure scene's base surface", "[meso][frame][scene]") {
         const auto base = buildMesoSceneBase(s);
         REQUIRE(base);
         CHECK(base->triangleCount() > 0);
+    }
+    SECTION("silhouettes: the base's frames carry its curvature, only when asked") {
+        const std::string scene = R"({"mesostructure": {"size": 16, "layers": 8},
+            "base": {"mesh": "builtin:torus", "placement": "face", "tessellation": 2, "isolation": 3},
+            "camera": {"eye": [0, 0, -5], "up": [0, 1, 0]})";
+        const auto plain = buildMesoSceneBase(parse(scene + "}"));
+        const MesoSceneDesc s = parse(scene + R"(, "effects": {"silhouettes": true}})");
+        CHECK(s.silhouettes);
+        const auto shaped = buildMesoSceneBase(s);
+        REQUIRE((plain && shaped));
+        CHECK_FALSE(plain->shaped);
+        CHECK(shaped->shaped);
+        CHECK(std::all_of(plain->corners.begin(), plain->corners.end(), [](const FrameVertex& v) { return v.shape == glm::dvec4(0.0); }));
+        // The torus is convex somewhere, and every corner's most convex curvature is <= 0.
+        CHECK(std::any_of(shaped->corners.begin(), shaped->corners.end(), [](const FrameVertex& v) { return v.shape.w < 0; }));
+        CHECK(std::all_of(shaped->corners.begin(), shaped->corners.end(), [](const FrameVertex& v) { return v.shape.w <= 0; }));
+        // The torus's inner saddle is concave around the ring: a slab deeper than that radius
+        // (about the hole's) meets itself there, a thin one nowhere.
+        CHECK(foldedCorners(*shaped, 1e-3) == 0);
+        CHECK(foldedCorners(*shaped, 100.0) > 0);
+        CHECK(foldedCorners(*shaped, 100.0) < shaped->corners.size());
+        CHECK(foldedCorners(*plain, 100.0) == 0);
+        CHECK_THROWS_WITH(parse(R"({"mesostructure": {}, "effects": {"silhouettes": true}})"),
+                          Contains("'effects.silhouettes' needs a 'base'"));
+        CHECK_THROWS_WITH(parse(scene + R"(, "effects": {"silhouettes": 1}})"), Contains("'effects.silhouettes' must be true or false"));
     }
     SECTION("bad base objects") {
         const auto bad = [](const std::string& base, const std::string& why) {

@@ -39,9 +39,9 @@ struct GpuMesoParams { // shaders/meso/common.glsl
 static_assert(sizeof(GpuMesoParams) == 64 + 5 * 16 + 3 * 16 + 16);
 
 struct GpuFrameVertex { // shaders/meso/common.glsl, DmFrameVertex
-    glm::vec4 position, pS, pT, normal;
+    glm::vec4 position, pS, pT, normal, shape;
 };
-static_assert(sizeof(GpuFrameVertex) == 64);
+static_assert(sizeof(GpuFrameVertex) == 80 && kMaxFrameCorners * sizeof(GpuFrameVertex) <= (std::size_t{1} << 27));
 
 constexpr std::uint32_t kTargets = 5;
 const VkFormat kFormats[kTargets] = {VK_FORMAT_R8G8B8A8_UNORM, VK_FORMAT_R32G32B32A32_SFLOAT, VK_FORMAT_R32G32B32A32_SFLOAT,
@@ -66,12 +66,13 @@ void validateScene(const Context& ctx, const MesoRenderOptions& o) {
         if (n == 0 || n % 3 != 0 || n > kMaxFrameCorners)
             throw ArgumentError("meso renderer: the base mesh has " + std::to_string(n) + " corners (three a triangle, 3 .. " +
                                 std::to_string(kMaxFrameCorners) + ")");
-        if (n * 64 > ctx.properties().limits.maxStorageBufferRange)
-            throw ArgumentError("meso renderer: the base mesh's " + std::to_string(n * 64) + " bytes exceed the device's maxStorageBufferRange (" +
+        if (n * sizeof(GpuFrameVertex) > ctx.properties().limits.maxStorageBufferRange)
+            throw ArgumentError("meso renderer: the base mesh's " + std::to_string(n * sizeof(GpuFrameVertex)) + " bytes exceed the device's maxStorageBufferRange (" +
                                 std::to_string(ctx.properties().limits.maxStorageBufferRange) + ")");
         for (std::size_t i = 0; i < n; ++i) {
             const FrameVertex& v = o.base->corners[i];
-            const double sum = glm::dot(glm::dvec3(1.0), glm::abs(v.position) + glm::abs(v.pS) + glm::abs(v.pT) + glm::abs(v.normal));
+            const double sum =
+                glm::dot(glm::dvec3(1.0), glm::abs(v.position) + glm::abs(v.pS) + glm::abs(v.pT) + glm::abs(v.normal) + glm::abs(glm::dvec3(v.shape)) + std::abs(v.shape.w));
             if (!(sum <= kMaxDrawValue))
                 throw ArgumentError("meso renderer: base mesh corner " + std::to_string(i) + " has a value that is not finite or beyond +-" +
                                     dispmap::detail::drawNumber(kMaxDrawValue) + " (the GPU holds it as a float)");
@@ -79,6 +80,9 @@ void validateScene(const Context& ctx, const MesoRenderOptions& o) {
                 throw ArgumentError("meso renderer: base mesh corner " + std::to_string(i) + ": its frame is singular or its normal not of unit length");
         }
     }
+    if (o.silhouettes && !(o.base && o.base->shaped))
+        throw ArgumentError(o.base ? "meso renderer: silhouettes need the base mesh's curvature (FrameMeshOptions::shape)"
+                                   : "meso renderer: silhouettes need a curved base mesh (the plane has none)");
     if (!(o.camera.fovYDeg > 0 && o.camera.fovYDeg < 180)) throw ArgumentError("meso renderer: field of view must be in (0, 180) degrees");
     if (!(glm::length(o.lightDirection) > 0) || !std::isfinite(glm::length(o.lightDirection)))
         throw ArgumentError("meso renderer: the light direction must be finite and non-zero");
@@ -244,7 +248,7 @@ struct MesoRenderer::Impl {
             for (std::size_t i = 0; i < corners.size(); ++i) {
                 const FrameVertex& v = options.base->corners[i];
                 corners[i] = {glm::vec4(glm::vec3(v.position), float(v.tex.x)), glm::vec4(glm::vec3(v.pS), float(v.tex.y)),
-                              glm::vec4(glm::vec3(v.pT), 0.0f), glm::vec4(glm::vec3(v.normal), 0.0f)};
+                              glm::vec4(glm::vec3(v.pT), 0.0f), glm::vec4(glm::vec3(v.normal), 0.0f), glm::vec4(v.shape)};
             }
         frame = std::make_unique<Buffer>(ctx, corners.size() * sizeof(GpuFrameVertex));
         frame->upload(corners.data(), corners.size() * sizeof(GpuFrameVertex));
@@ -309,7 +313,8 @@ struct MesoRenderer::Impl {
                                options.base ? 1u : 0u,
                                g.look.albedo ? 1u : 0u,
                                g.look.normalMap ? 1u : 0u,
-                               g.solid ? 1u : 0u};
+                               g.solid ? 1u : 0u,
+                               options.silhouettes ? 1u : 0u};
             d.stages = {{VK_SHADER_STAGE_VERTEX_BIT, options.base ? std::span<const std::uint32_t>(meso_base_vert_spv)
                                                                   : std::span<const std::uint32_t>(meso_vert_spv), false},
                         {VK_SHADER_STAGE_FRAGMENT_BIT, meso_frag_spv, true}};
@@ -430,6 +435,7 @@ MesoImage MesoRenderer::render() {
     out.shadowIterations.resize(pixels);
     out.covered.resize(pixels);
     out.hit.resize(pixels);
+    out.cut.resize(pixels);
     out.shadowed.resize(pixels);
     out.rayOrigin.resize(pixels);
     out.rayDir.resize(pixels);
@@ -439,7 +445,8 @@ MesoImage MesoRenderer::render() {
         out.iterations[i] = counts[i].x;
         out.shadowIterations[i] = counts[i].y;
         out.shadowed[i] = counts[i].z ? 1 : 0;
-        out.hit[i] = counts[i].w ? 1 : 0;
+        out.hit[i] = counts[i].w == 1u ? 1 : 0;
+        out.cut[i] = counts[i].w == 2u ? 1 : 0;
         out.rayOrigin[i] = glm::vec3(origin[i]);
         out.rayDir[i] = glm::vec3(dir[i]);
         out.part[i] = static_cast<std::uint8_t>(std::clamp(dir[i].w, 0.0f, 255.0f));

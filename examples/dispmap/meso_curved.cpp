@@ -42,6 +42,7 @@ double percentileOf(std::vector<double> v, double p) {
 struct CurvedCell {
     std::vector<double> texelError; ///< |planar hit - exact hit| in texels of the texture, where both hit
     std::size_t rays = 0, falseHits = 0, falseMisses = 0;
+    std::size_t cutFalseHits = 0, cutFalseMisses = 0; ///< the same with silhouettes (dmShellExit)
 };
 
 // The cylinder's exact first hit of the ray P + t D (t >= 0, P on the outer surface), as the
@@ -87,14 +88,18 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
            "cylinder of radius R, the slab delta deep below it, tiles of T = 5 delta (the plane scenes' proportion); DDM 4x1 + "
            "quadrics on the grating (64 x 64 x 16), 400 rays a cell at random points and azimuths. Error: the distance between the "
            "planar and the exact hit in texels (x, y) and voxels (z), where both hit; false hits: the planar march hits where the "
-           "exact ray leaves the shell (a silhouette the planar march fills in).\n\n";
+           "exact ray leaves the shell (a silhouette the planar march fills in); with silhouettes "
+           "(MesoRenderOptions::silhouettes): the same march, its hit dropped past the point where the ray leaves the shell "
+           "modelled by the cylinder's second fundamental form and principal curvature (kern::dmShellExit: the cylinder's exact top), false hits and false misses (the exact ray "
+           "hits, the cut march does not).\n\n";
     const MesoHeightField field = mesoFunctionField("grating", 64, 16);
     MesoMapOptions mo = mesoMapOptionsFor(MesoTechnique{}, false, parseConeSet("4x1"));
     const MesoMaps maps = buildMesoMaps(field, mo);
     MesoTechnique tq;
     tq.iterations = 1024;
     const double incidence[][2] = {{0.0, 30.0}, {30.0, 60.0}, {60.0, 80.0}};
-    out << "| delta / R | incidence | error p50 | error p90 | false hits |\n|---|---|---|---|---|\n";
+    out << "| delta / R | incidence | error p50 | error p90 | false hits | false hits, silhouettes | false misses, silhouettes |\n"
+           "|---|---|---|---|---|---|---|\n";
     std::mt19937 gen(2026);
     std::uniform_real_distribution<double> u01(0.0, 1.0);
     for (const double ratio : {0.003, 0.01, 0.03, 0.1, 0.3}) {
@@ -115,10 +120,17 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
                 const glm::dvec3 o = kern::dmMesoEntry(tex, vpu, field.layers);
                 const glm::dvec3 d = kern::dmTangentToVoxel(kern::dmFrameCoordinates(D, pS, pT, n), vpu);
                 const MesoHit planar = marchMeso<double>(maps, tq, o, d);
-                glm::dvec3 exact;
+                glm::dvec3 exact(0.0);
                 const bool exactHits = exactHit(field, R, delta, T, P, D, exact);
                 if (planar.hit && !exactHits) ++cell.falseHits;
                 if (!planar.hit && exactHits) ++cell.falseMisses;
+                // With silhouettes: the cylinder's second fundamental form in (s, t) is
+                // (n . P_ss, n . P_st, n . P_tt) = (-T^2 / R, 0, 0), its most convex principal
+                // curvature -1 / R (FrameVertex::shape).
+                const double exitT = kern::dmShellExit(o, d, o, glm::dvec4(-T * T / R, 0.0, 0.0, -1.0 / R), vpu, double(field.layers));
+                const bool cutHit = planar.hit && !(exitT >= 0 && planar.t > exitT);
+                if (cutHit && !exactHits) ++cell.cutFalseHits;
+                if (!cutHit && exactHits) ++cell.cutFalseMisses;
                 if (planar.hit && exactHits) {
                     cell.texelError.push_back(glm::length(planar.point(o, d) - exact));
                 }
@@ -127,7 +139,9 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
             row << std::setprecision(3) << "| " << ratio << " | " << band[0] << "–" << band[1] << "° | " << percentileOf(cell.texelError, 0.5)
                 << " | " << percentileOf(cell.texelError, 0.9) << " | " << std::fixed << std::setprecision(1)
                 << 100.0 * static_cast<double>(cell.falseHits) / static_cast<double>(cell.rays) << " %"
-                << (cell.falseMisses ? " (" + std::to_string(cell.falseMisses) + " false misses)" : "") << " |\n";
+                << (cell.falseMisses ? " (" + std::to_string(cell.falseMisses) + " false misses)" : "") << " | "
+                << 100.0 * static_cast<double>(cell.cutFalseHits) / static_cast<double>(cell.rays) << " % | "
+                << 100.0 * static_cast<double>(cell.cutFalseMisses) / static_cast<double>(cell.rays) << " % |\n";
             out << row.str();
         }
     }

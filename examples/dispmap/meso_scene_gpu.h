@@ -38,6 +38,7 @@ inline vulkan::MesoRenderOptions mesoSceneRenderOptions(const MesoSceneDesc& s) 
     o.camera.fovYDeg = s.fov;
     o.lightDirection = s.light;
     o.tileSize = s.tile;
+    o.silhouettes = s.silhouettes;
     return o;
 }
 

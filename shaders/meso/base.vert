@@ -10,6 +10,7 @@ layout(location = 1) out vec2 tex;
 layout(location = 2) out vec3 framePS;
 layout(location = 3) out vec3 framePT;
 layout(location = 4) out vec3 frameN;
+layout(location = 5) out vec4 frameShape;
 
 void main() {
     DmFrameVertex v = frameVertices[gl_VertexIndex];
@@ -18,5 +19,6 @@ void main() {
     framePS = v.pS.xyz;
     framePT = v.pT.xyz;
     frameN = v.normal.xyz;
+    frameShape = v.shape;
     gl_Position = params.viewProj * vec4(v.position.xyz, 1.0);
 }

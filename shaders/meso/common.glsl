@@ -20,5 +20,6 @@ struct DmFrameVertex {
     vec4 pS;       // dP/ds, w: t
     vec4 pT;       // dP/dt
     vec4 normal;   // unit
+    vec4 shape;    // the second fundamental form in (s, t): n . P_ss, n . P_st, n . P_tt; w: the most convex principal curvature (FrameVertex::shape)
 };
 layout(std430, set = 0, binding = 6) readonly buffer FrameVertices { DmFrameVertex frameVertices[]; };

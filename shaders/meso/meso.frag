@@ -11,7 +11,8 @@
 // (dmMesoSolidNormal, dmFrameVoxelNormal) and shadowed by the same march. On a base mesh the
 // depth is the hit's (dmFramePoint), so the detail occludes and is occluded where it is, and a ray that misses
 // (it leaves through the top, e.g. from a back face) writes the far plane: what lies behind
-// it shows through. Every formula is a kernel (kernels/meso.h, kernels/meso_shade.h);
+// it shows through; with kSilhouettes so does a hit past the point where the ray leaves the
+// curved shell (dmShellExit on the interpolated second fundamental form). Every formula is a kernel (kernels/meso.h, kernels/meso_shade.h);
 // march.glsl holds the loops.
 #extension GL_GOOGLE_include_directive : require
 #define DM_MESO_SET 0
@@ -35,17 +36,19 @@ layout(constant_id = 9) const int kBase = 0;            // 0 the plane z = 0, 1 
 layout(constant_id = 10) const bool kAlbedo = false;    // the albedo image (binding 7), else the checker
 layout(constant_id = 11) const bool kNormalMap = false; // the normal map (binding 7 from params.dims2.y on) shades, else the height field's normal
 layout(constant_id = 12) const bool kSolid = false;     // a non-height-field solid (bindings 8, 9): its DDM march (kMethod 1) and corner normals
+layout(constant_id = 13) const bool kSilhouettes = false; // on a base mesh: hits past where the ray leaves the curved shell are misses (dmShellExit)
 
 layout(location = 0) in vec3 worldPos;
 layout(location = 1) in vec2 tex;
 layout(location = 2) in vec3 framePS;
 layout(location = 3) in vec3 framePT;
 layout(location = 4) in vec3 frameN;
+layout(location = 5) in vec4 frameShape;
 layout(location = 0) out vec4 outColor;
 layout(location = 1) out vec4 outHit;    // voxel-space hit point, t (w = -1: the ray missed)
 layout(location = 2) out vec4 outOrigin; // the view ray in voxel space: o, 1
 layout(location = 3) out vec4 outDir;    // d, the part
-layout(location = 4) out uvec4 outCounts; // view iterations, shadow iterations, shadowed, hit
+layout(location = 4) out uvec4 outCounts; // view iterations, shadow iterations, shadowed, hit (1; 2: a hit past the shell's exit, a miss)
 
 void main() {
     DmMesoSize s;
@@ -97,10 +100,20 @@ void main() {
     }
     outOrigin = vec4(o, 1.0);
     outDir = vec4(d, float(params.dims2.z)); // w: which of the renderer's mesostructures drew the pixel
+    // The silhouette: a hit beyond the point where the ray has left the curved shell through
+    // its top is not seen (the ray went on into what lies behind).
+    uint cut = 0u;
+    if (kBase != 0 && kSilhouettes && h.hit) {
+        float exitT = dmShellExit(o, d, o, frameShape, vpu, float(s.layers));
+        if (exitT >= 0.0 && h.t > exitT) {
+            h.hit = false;
+            cut = 2u;
+        }
+    }
     if (!h.hit) {
         outColor = params.background;
         outHit = vec4(0.0, 0.0, 0.0, -1.0);
-        outCounts = uvec4(uint(h.iterations), 0u, 0u, 0u);
+        outCounts = uvec4(uint(h.iterations), 0u, 0u, cut);
         gl_FragDepth = kBase == 0 ? gl_FragCoord.z : 1.0;
         return;
     }
@@ -151,6 +164,13 @@ void main() {
                 sh = dmMarchDdmSolid(s, so, sd, kShadowIterations, 1).h;
             } else {
                 sh = dmMarchDdm(s, so, sd, kShadowIterations, true, 1);
+            }
+            if (kBase != 0 && kSilhouettes && sh.hit) {
+                // Past the shell's top the shadow ray is out in the open.
+                float exitT = dmShellExit(so, sd, o, frameShape, vpu, float(s.layers));
+                if (exitT >= 0.0 && sh.t > exitT) {
+                    sh.hit = false;
+                }
             }
             lit = sh.hit ? 0.0 : 1.0;
             shadowIterations = uint(sh.iterations);

@@ -10,6 +10,7 @@ layout(location = 1) out vec2 tex;
 layout(location = 2) out vec3 framePS;
 layout(location = 3) out vec3 framePT;
 layout(location = 4) out vec3 frameN;
+layout(location = 5) out vec4 frameShape;
 
 void main() {
     int quads = int(params.plane.y);
@@ -24,5 +25,6 @@ void main() {
     framePS = vec3(1.0, 0.0, 0.0);
     framePT = vec3(0.0, 1.0, 0.0);
     frameN = vec3(0.0, 0.0, 1.0);
+    frameShape = vec4(0.0); // flat
     gl_Position = params.viewProj * vec4(p, 1.0);
 }

@@ -100,6 +100,56 @@ DM_TFUNC rvec3 dmFrameVoxelNormal(rvec3 nv, rvec3 pS, rvec3 pT, rvec3 n, rvec3 v
     return m * (real(1) / sqrt(dmDot3(m, m)));
 }
 
+// Where the ray p + t d (voxel space, t >= 0) leaves a curved base's shell through its top: the
+// silhouette of the detail itself. The march itself stays locally planar (Donnelly §8.3.1); the
+// shell's top is modelled around the entry point o by a quadric with the base's second
+// fundamental form: with e = (x, y) - (o.x, o.y) the horizontal offset and z' = z - top the
+// height over the entry's tangent plane (voxels), the top is where
+//     F = (1/2) e^T K e + (1/2) m z'^2 - z' = 0,   inside (below the top) where F > 0.
+// K is `shape`.xyz (n . P_ss, n . P_st, n . P_tt: world units per squared texture unit,
+// FrameVertex::shape) in voxels: K_xx = shape.x vpu.z / vpu.x^2, K_xy = shape.y vpu.z /
+// (vpu.x vpu.y), K_yy = shape.z vpu.z / vpu.y^2; m = shape.w / vpu.z, shape.w the most convex
+// principal curvature (<= 0, 1 / world units). Negative along a convex direction: there the top
+// falls away below the tangent plane. The z'^2 term makes the quadric the exact shell of a
+// sphere and of a cylinder (both principal radii, or the one curved direction, meet the
+// vertical); without it (m = 0) the shell is the osculating paraboloid. Along the ray
+// F = c + b t + a t^2; the answer is its least root t >= 0 where F falls (F' <= 0), from the
+// stable pair q / a and c / q; real(-1) where there is none (flat or concave along the ray,
+// or a top that curls over it). A start above the top counts as on it (c >= 0).
+DM_TFUNC real dmShellExit(rvec3 p, rvec3 d, rvec3 o, rvec4 shape, rvec3 voxelsPerUnit, real top) {
+    real kxx = shape.x * (voxelsPerUnit.z / (voxelsPerUnit.x * voxelsPerUnit.x));
+    real kxy = shape.y * (voxelsPerUnit.z / (voxelsPerUnit.x * voxelsPerUnit.y));
+    real kyy = shape.z * (voxelsPerUnit.z / (voxelsPerUnit.y * voxelsPerUnit.y));
+    real m = shape.w / voxelsPerUnit.z;
+    real ex = p.x - o.x;
+    real ey = p.y - o.y;
+    real zh = min(p.z - top, real(0));
+    rvec2 ke = rvec2(kxx * ex + kxy * ey, kxy * ex + kyy * ey);
+    rvec2 kd = rvec2(kxx * d.x + kxy * d.y, kxy * d.x + kyy * d.y);
+    real c = max(real(0.5) * ((ex * ke.x + ey * ke.y) + m * (zh * zh)) - zh, real(0));
+    real b = ((d.x * ke.x + d.y * ke.y) + m * (zh * d.z)) - d.z;
+    real a = real(0.5) * ((d.x * kd.x + d.y * kd.y) + m * (d.z * d.z));
+    real disc = b * b - real(4) * a * c;
+    real best = real(-1);
+    if (disc >= real(0)) {
+        real s = sqrt(disc);
+        real q = b < real(0) ? real(-0.5) * (b - s) : real(-0.5) * (b + s);
+        if (a != real(0)) {
+            real r = q / a;
+            if (r >= real(0) && real(2) * a * r + b <= real(0)) {
+                best = r;
+            }
+        }
+        if (q != real(0)) {
+            real r = c / q;
+            if (r >= real(0) && real(2) * a * r + b <= real(0) && (best < real(0) || r < best)) {
+                best = r;
+            }
+        }
+    }
+    return best;
+}
+
 // The tangent-space normal that a normal map's texel c (RGBA in [0, 1]) holds: x = 2 r - 1
 // along +s, y = 2 g - 1 along greenT t (greenT -1: green points to the image's top, t = 0, as
 // OpenGL and glTF write normal maps; +1: to its bottom, as DirectX), z = 2 b - 1 along the

@@ -10,7 +10,8 @@
 //    "camera": {"eye": [0.3, -1.2, 0.7], "target": [0, 0, 0], "up": [0, 0, 1], "fov": 45},
 //    "light": [0.4, 0.3, 0.8], "resolution": [320, 240], "tile": 0.5, "slab": 0.06, "checker": 8,
 //    "effects": {"technique": "ddm", "quadrics": true, "iterations": 128, "exitRule": 1,
-//                "eps": -1, "linear": 32, "binary": 6, "shadows": false, "mips": true},
+//                "eps": -1, "linear": 32, "binary": 6, "shadows": false, "mips": true,
+//                "silhouettes": false},
 //    "base": {"mesh": "spot.obj", "isolation": 6, "displacement": {...},
 //             "placement": "uv", "repeat": [8, 8], "uv": "mesh", "tessellation": 8}}
 //
@@ -91,6 +92,9 @@ struct MesoSceneDesc {
     glm::dvec3 up{0.0, 0.0, 1.0};
     MesoTechnique technique;
     bool shadows = false;
+    /// "effects.silhouettes": the detail's own silhouettes on the base (needs "base"; the
+    /// base's frames then carry its curvature, FrameMeshOptions::shape).
+    bool silhouettes = false;
     /// The base surface ("base"): a surface scene's mesh, isolation and displacement (no
     /// camera, lights or effects of its own); none: the plane.
     std::optional<Scene> base;
@@ -513,7 +517,8 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
     if (!(s.checker >= 0 && s.checker <= 1e6)) throw fail("'checker' must be in [0, 1e6] voxels (0: no checker)");
     if (j.contains("effects")) {
         const nlohmann::json& e = j["effects"];
-        mesoKeys(e, name, "effects", {"technique", "quadrics", "iterations", "exitRule", "eps", "linear", "binary", "shadows", "mips"});
+        mesoKeys(e, name, "effects", {"technique", "quadrics", "iterations", "exitRule", "eps", "linear", "binary", "shadows", "mips",
+                                            "silhouettes"});
         MesoTechnique& t = s.technique;
         if (e.contains("technique")) {
             const std::string k = e["technique"].is_string() ? e["technique"].get<std::string>() : "";
@@ -530,6 +535,7 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
         };
         t.quadrics = flag("quadrics", t.quadrics);
         s.shadows = flag("shadows", s.shadows);
+        s.silhouettes = flag("silhouettes", s.silhouettes);
         s.albedoMips = flag("mips", s.albedoMips);
         t.iterations = mesoNumber(e, "iterations", t.iterations, name, "effects.");
         t.exitRule = mesoNumber(e, "exitRule", t.exitRule, name, "effects.");
@@ -548,6 +554,8 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
     if (!(s.fov >= kMinFovDeg && s.fov < 180))
         throw fail("'camera.fov' " + std::to_string(s.fov) + " is not in [" + detail::drawNumber(kMinFovDeg) + ", 180) degrees");
     if (j.contains("base")) parseMesoBase(j["base"], name, baseDir, s);
+    if (s.silhouettes && !s.base) throw fail("'effects.silhouettes' needs a 'base' (the plane z = 0 has no silhouettes of its own)");
+    s.placement.shape = s.silhouettes;
     if (!s.base && !(s.eye.z > 0)) throw fail("'camera.eye' must be above the plane z = 0 (eye.z > 0)");
     if (!(glm::length(s.target - s.eye) > 0)) throw fail("'camera.eye' and 'camera.target' are the same point");
     if (!(glm::length(glm::cross(s.target - s.eye, s.up)) > 1e-9 * glm::length(s.target - s.eye) * glm::length(s.up)))

@@ -20,6 +20,7 @@
 // [pS pT] = [f_u f_v] M^-1. Where M or the frame is singular at a corner (a UV chart
 // collapsing to a point, a pole), the corner's frame is taken a step (kFrameNudge) towards
 // its face's centre; a frame that stays singular is an ArgumentError naming the face.
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -40,6 +41,11 @@ struct FrameVertex {
     glm::dvec3 pS{0.0};   ///< dP/ds, world units per texture unit
     glm::dvec3 pT{0.0};   ///< dP/dt
     glm::dvec3 normal{0.0}; ///< unit
+    /// The second fundamental form in (s, t): (n . P_ss, n . P_st, n . P_tt), world units per
+    /// squared texture unit, negative along a convex direction; w: the most convex principal
+    /// curvature, min(k1, k2, 0) (1 / world units). Only with FrameMeshOptions::shape (else 0):
+    /// what the renderer's silhouettes read (kern::dmShellExit).
+    glm::dvec4 shape{0.0};
 };
 
 /// Three corners a triangle, counter-clockwise around the surface's normal.
@@ -51,6 +57,8 @@ struct FrameMesh {
     /// Triangles per group, in order, when groupFrameMesh has ordered them (group g is the
     /// triangles after the first groups[0] + ... + groups[g - 1]); empty: not grouped.
     std::vector<int> groups;
+    /// Whether the corners carry FrameVertex::shape (FrameMeshOptions::shape).
+    bool shaped = false;
     int triangleCount() const { return static_cast<int>(corners.size() / 3); }
     /// The world width of a tile, averaged over the corners: the mean of (|pS| + |pT|) / 2
     /// (0 without corners). What a normal map made from heights takes as the tile's width on
@@ -78,16 +86,27 @@ struct FrameMeshOptions {
     /// Per ptex face, its own tiles per unit in place of `repeat` (several mesostructures of
     /// different tile sizes on one base: scene/meso.h); empty: `repeat` on every face.
     std::vector<glm::dvec2> faceRepeat = {};
+    /// Also each corner's second fundamental form (FrameVertex::shape), for silhouettes: from
+    /// central differences of the surface's normal (in the mode `normals`) a step kShapeStep
+    /// to either side in u and v (one-sided at the face's edges), II = -[f_i . n_j]
+    /// symmetrised, taken to (s, t) through the chart, M^-T II M^-1. Four more evaluations a
+    /// corner, so only when asked.
+    bool shape = false;
 };
 
-/// Largest frame mesh (corners, three a triangle): 2^21, the 128 MiB (64 bytes a corner on the
-/// GPU) of storage buffer every Vulkan device must bind (maxStorageBufferRange's minimum);
-/// about 700k triangles.
-inline constexpr std::size_t kMaxFrameCorners = std::size_t{1} << 21;
+/// Largest frame mesh (corners, three a triangle): the most that fit in the 128 MiB of storage
+/// buffer every Vulkan device must bind (maxStorageBufferRange's minimum) at 80 bytes a corner
+/// on the GPU, a multiple of three: 1677720 corners, 559240 triangles.
+inline constexpr std::size_t kMaxFrameCorners = (std::size_t{1} << 27) / 80 / 3 * 3;
 
 /// How far (in the face's (u, v)) a corner with a singular frame is moved towards its face's
 /// centre before its frame is evaluated again.
 inline constexpr double kFrameNudge = 1e-3;
+
+/// The step in the face's (u, v) of FrameMeshOptions::shape's differences: their truncation
+/// error is about kShapeStep^2 of the curvature's change over a face, their rounding about
+/// 1e-16 / kShapeStep of it.
+inline constexpr double kShapeStep = 1e-4;
 
 /// Whether a frame's vectors are independent enough to solve in (dmFrameCoordinates): the
 /// triple product against the product of the lengths, as a sine (1 orthogonal, 0 dependent).
@@ -100,6 +119,28 @@ inline double frameIndependence(const glm::dvec3& pS, const glm::dvec3& pT, cons
 /// Smallest accepted frameIndependence: 1e-6, a chart sheared to within a thousandth of a
 /// degree of flat; below it the solve amplifies float rounding of the view ray by 1e6.
 inline constexpr double kMinFrameIndependence = 1e-6;
+
+/// The principal curvatures (k1 <= k2, 1 / world units; negative: convex) of a corner that
+/// carries its shape (FrameMeshOptions::shape): the eigenvalues of the shape operator G^-1 II,
+/// G the first fundamental form of (pS, pT) and II = FrameVertex::shape's xyz.
+inline glm::dvec2 principalCurvatures(const FrameVertex& v) {
+    const glm::dmat2 g(glm::dot(v.pS, v.pS), glm::dot(v.pS, v.pT), glm::dot(v.pS, v.pT), glm::dot(v.pT, v.pT));
+    const glm::dmat2 so = glm::inverse(g) * glm::dmat2(v.shape.x, v.shape.y, v.shape.y, v.shape.z);
+    const double half = 0.5 * (so[0][0] + so[1][1]);
+    const double root = std::sqrt(std::max(half * half - glm::determinant(so), 0.0));
+    return {half - root, half + root};
+}
+
+/// Corners of a shaped frame mesh where the slab of `depth` world units meets itself: the base
+/// is concave there with a radius below the depth (k2 > 1 / depth), so the floors of the two
+/// sides of the fold overlap. Each side's detail is still marched in its own frame and the
+/// depth test keeps the nearer; what is drawn there is not a single offset surface. 0 for a
+/// mesh without shape.
+inline std::size_t foldedCorners(const FrameMesh& mesh, double depth) {
+    if (!mesh.shaped) return 0;
+    return static_cast<std::size_t>(
+        std::count_if(mesh.corners.begin(), mesh.corners.end(), [&](const FrameVertex& v) { return principalCurvatures(v).y * depth > 1.0; }));
+}
 
 namespace detail {
 // The frame at face (u, v) = q and the texture coordinate at p (q is p, or p nudged towards the
@@ -125,6 +166,23 @@ inline bool frameAt(const DisplacedSurface& surface, const UvMap* uv, const Fram
     out.pS = (s.du * dt.y - s.dv * ds.y) / det;
     out.pT = (s.dv * ds.x - s.du * dt.x) / det;
     out.normal = s.normal;
+    out.shape = glm::dvec4(0.0);
+    if (o.shape) {
+        // dn/du and dn/dv by differences within [0, 1]^2, then II(u, v) = -[f_i . n_j].
+        glm::dvec3 dn[2];
+        for (int i = 0; i < 2; ++i) {
+            glm::dvec2 lo = q, hi = q;
+            lo[i] = std::max(0.0, q[i] - kShapeStep);
+            hi[i] = std::min(1.0, q[i] + kShapeStep);
+            dn[i] = (surface.evaluate(face, hi.x, hi.y, o.normals).normal - surface.evaluate(face, lo.x, lo.y, o.normals).normal) / (hi[i] - lo[i]);
+        }
+        const double iuv = -0.5 * (glm::dot(s.du, dn[1]) + glm::dot(s.dv, dn[0]));
+        const glm::dmat2 ii(-glm::dot(s.du, dn[0]), iuv, iuv, -glm::dot(s.dv, dn[1]));
+        const glm::dmat2 minv = glm::inverse(glm::dmat2(ds, dt)); // M: columns d(s, t)/du, d(s, t)/dv
+        const glm::dmat2 st = glm::transpose(minv) * ii * minv;
+        out.shape = glm::dvec4(st[0][0], 0.5 * (st[0][1] + st[1][0]), st[1][1], 0.0);
+        out.shape.w = std::min(principalCurvatures(out).x, 0.0);
+    }
     return frameIndependence(out.pS, out.pT, out.normal) >= kMinFrameIndependence;
 }
 } // namespace detail
@@ -154,6 +212,7 @@ inline FrameMesh buildFrameMesh(const DisplacedSurface& surface, const TriangleM
         throw ArgumentError("frame mesh: " + std::to_string(tess.triangles.size()) + " triangles, more than the " +
                             std::to_string(kMaxFrameCorners / 3) + " a frame mesh may have (a lower tessellation factor)");
     FrameMesh out;
+    out.shaped = o.shape;
     out.corners.resize(3 * tess.triangles.size());
     out.faces = tess.triangleFaces;
     std::vector<char> singular(3 * tess.triangles.size(), 0);

@@ -77,6 +77,11 @@ struct MesoRenderOptions : MesoLook {
     /// each frame solvable (frameIndependence >= kMinFrameIndependence, a unit normal) and
     /// its texture coordinates within kMaxFrameVoxel voxels of the origin.
     std::shared_ptr<const FrameMesh> base;
+    /// The detail's own silhouettes on a curved base: a hit past the point where the view ray
+    /// has left the shell through its top (the shell modelled around the pixel by the base's
+    /// second fundamental form, kern::dmShellExit) is a miss, and so is a shadow ray's. Needs
+    /// a base built with FrameMeshOptions::shape. Off: the locally planar slab everywhere.
+    bool silhouettes = false;
     double ambient = 0.2;
     glm::dvec3 background{0.12, 0.13, 0.16};
     int frames = 3;            ///< timed frames (the GPU time is their median)
@@ -99,6 +104,7 @@ struct MesoImage {
     std::vector<std::uint32_t> shadowIterations;
     std::vector<std::uint8_t> covered;       ///< 1 where the base covers the pixel (a base mesh: back faces and misses too, which write the far plane)
     std::vector<std::uint8_t> hit;           ///< 1 where the view ray hit (0: missed, or background)
+    std::vector<std::uint8_t> cut;           ///< 1 where the march hit past the shell's exit (silhouettes): drawn as a miss
     std::vector<std::uint8_t> shadowed;      ///< 1 where the shadow ray hit the mesostructure (or the base turns away from the light)
     std::vector<glm::vec4> hitPoint;         ///< voxel-space hit point and t
     std::vector<glm::vec3> rayOrigin, rayDir; ///< the pixel's view ray in voxel space (where covered)
