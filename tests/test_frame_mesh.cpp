@@ -257,6 +257,26 @@ TEST_CASE("dmShellExit: where a ray leaves the curved shell through its top", "[
         // Concave (the inside of the cylinder): the top rises over a descending ray, no exit.
         CHECK(kern::dmShellExit(o, glm::dvec3(1, 0, -0.1), o, glm::dvec4(-glm::dvec3(shape), 0.0), vpu, 16.0) == -1.0);
     }
+    SECTION("a sphere's exact shell, in a sheared chart with W != H: the ray leaves the ball at -2 R (D . n) / |D|^2") {
+        // In any chart a sphere's II is -G / R (G the first fundamental form of pS, pT): the
+        // K_xy and K_yy terms and the vpu scaling of all three, against the world's closed form.
+        std::mt19937 g(11);
+        int spheres = 0;
+        for (int k = 0; k < 200; ++k) {
+            glm::dvec3 pS, pT, n;
+            randomFrame(g, pS, pT, n);
+            // A sphere's frame: n normal to both tangents (on either side: a mirrored chart).
+            n = glm::normalize(glm::cross(pS, pT)) * (glm::dot(n, glm::cross(pS, pT)) < 0 ? -1.0 : 1.0);
+            const double R = std::exp(std::uniform_real_distribution<double>(-1.0, 2.0)(g));
+            const glm::dvec3 vpu(40.0, 96.0, 16.0 / (0.05 * R));
+            const glm::dvec4 shape(-glm::dot(pS, pS) / R, -glm::dot(pS, pT) / R, -glm::dot(pT, pT) / R, -1.0 / R);
+            const glm::dvec3 o(5.0, 6.0, 16.0), d = glm::normalize(glm::dvec3(randomVec(g, 1.0).x, randomVec(g, 1.0).y, -0.05 - std::abs(randomVec(g, 1.0).z)));
+            const glm::dvec3 D = pS * (d.x / vpu.x) + pT * (d.y / vpu.y) + n * (d.z / vpu.z); // d's world image
+            CHECK(kern::dmShellExit(o, d, o, shape, vpu, 16.0) == Approx(-2.0 * R * glm::dot(D, n) / glm::dot(D, D)).epsilon(1e-9));
+            ++spheres;
+        }
+        CHECK(spheres > 100);
+    }
     SECTION("random shells and rays, at both precisions, against a fine walk of the top's height over the ray") {
         std::mt19937 g(17);
         std::uniform_real_distribution<double> u(-1.0, 1.0);
@@ -306,6 +326,107 @@ TEST_CASE("dmShellExit: where a ray leaves the curved shell through its top", "[
     }
 }
 
+TEST_CASE("a bent ray's DDM march finds the parabola's first crossing of the height field", "[meso][frame][silhouette]") {
+    // The grating and a wave field, 4x1 + shadow cones (bent-up chords read them), quadrics. The
+    // reference walks the parabola P(t) = o + t d - bend t^2 z itself in steps of 1/64 voxel: the
+    // chords lie within e = kMesoChordError (0.05 voxels, vertically) of it (more where 64 chords
+    // are too few: |bend| (length / 64)^2 / 4), so the march's hit must
+    // lie between the first point where the parabola comes within 0.05 of the surface (or the
+    // floor) and the first where it is 0.05 below it; a parabola that never comes within 0.05
+    // of it before it leaves through the top again is a miss, and one that dips 0.05 below is a hit
+    // (the walk's "within" widened by what the field can change between two of its points).
+    for (const char* function : {"grating", "waves"}) {
+        const MesoHeightField field = mesoFunctionField(function, 32, 16);
+        const MesoMaps maps = buildMesoMaps(field, mesoMapOptionsFor(MesoTechnique{}, true, ConeSet{4, 1, false, false}));
+        MesoTechnique tq;
+        tq.iterations = 512;
+        const double L = field.layers, eChord = kMesoChordError;
+        // The walk's own blind spot: between two of its points (1/64 of a voxel or less apart
+        // horizontally) the field changes by at most its steepest texel step / 64.
+        double steep = 0;
+        for (int j = 0; j < field.height; ++j)
+            for (int i = 0; i < field.width; ++i) {
+                const glm::vec4 c = field.cell(i, j);
+                steep = std::max({steep, double(std::abs(c.y - c.x)), double(std::abs(c.w - c.x)), double(std::abs(c.z - c.y)), double(std::abs(c.z - c.w))});
+            }
+        const double walkSlack = steep / 64.0 + 1.0 / 64.0;
+        std::mt19937 g(5);
+        std::uniform_real_distribution<double> u(0.0, 1.0);
+        int hits = 0, misses = 0, bentUp = 0, straight = 0, checked = 0;
+        for (int k = 0; k < 3000; ++k) {
+            const double elev = (k % 3 == 0 ? 0.02 + 0.15 * u(g) : 0.1 + 1.3 * u(g)), az = 6.283185307179586 * u(g);
+            const glm::dvec3 d(std::cos(elev) * std::cos(az), std::cos(elev) * std::sin(az), -std::sin(elev));
+            const glm::dvec3 o(64.0 * u(g) - 16.0, 64.0 * u(g) - 16.0, L);
+            const double bend = k % 10 == 0 ? 0.0 : (k % 2 == 0 ? -1.0 : 1.0) * std::exp(-9.0 + 7.0 * u(g));
+            // The chords' error: kMesoChordError, or more where the march's 64 chords are too few
+            // for the parabola's length (to the floor, or back to the top: tEnd).
+            const double tFloor = bend == 0 ? -L / d.z : (d.z + std::sqrt(std::max(d.z * d.z + 4.0 * bend * L, 0.0))) / (2.0 * bend);
+            const double tEnd = bend < 0 ? (d.z * d.z + 4.0 * bend * L >= 0 ? std::min(std::abs(tFloor), d.z / bend) : d.z / bend) : std::abs(tFloor);
+            const double e = std::max(eChord, std::abs(bend) * (tEnd / 64.0) * (tEnd / 64.0) / 4.0);
+            const auto below = [&](double t) { // how far P(t) lies below the surface (< 0: above); the floor is solid
+                const glm::dvec3 p = o + d * t - glm::dvec3(0.0, 0.0, bend * t * t);
+                glm::dvec2 f;
+                const glm::ivec2 c = kern::dmHeightCell(glm::dvec2(p.x, p.y), f);
+                return std::max(kern::dmBilerp(glm::dvec4(field.cell(c.x, c.y)), f), 0.0) - p.z;
+            };
+            double tNear = -1, tDeep = -1;
+            bool leaves = false;
+            for (double t = 0.0; t < 4096.0; t += 1.0 / 64.0) {
+                const double z = o.z + d.z * t - bend * t * t;
+                if (t > 0 && z > L) { // back above the top: left the shell
+                    leaves = true;
+                    break;
+                }
+                const double b = below(t);
+                if (tNear < 0 && b >= -e - walkSlack) tNear = t;
+                if (b >= e) {
+                    tDeep = t;
+                    break;
+                }
+            }
+            glm::dvec3 slab;
+            const MesoHit h = marchMesoBent<double>(maps, tq, o, d, bend, &slab);
+            INFO(function << " k " << k << " bend " << bend << " hit " << h.hit << " t " << h.t << " n " << h.iterations << " near " << tNear << " deep " << tDeep);
+            bentUp += bend < 0 && leaves ? 1 : 0;
+            straight += bend == 0 ? 1 : 0;
+            if (tNear < 0) {
+                CHECK_FALSE(h.hit);
+                ++misses;
+                continue;
+            }
+            if (tDeep >= 0) {
+                REQUIRE(h.hit);
+                ++hits;
+                // t on the straight ray is the parabola's parameter: between the two walk points
+                // (one step of slack either side).
+                CHECK(h.t >= tNear - 1.0 / 64.0);
+                CHECK(h.t <= tDeep + 1.0 / 64.0);
+                // The hit's slab point is on the parabola to the chords' error.
+                const glm::dvec3 p = o + d * h.t - glm::dvec3(0.0, 0.0, bend * h.t * h.t);
+                CHECK(glm::length(slab - p) <= e + 1e-9 * (1.0 + h.t));
+                ++checked;
+            }
+        }
+        INFO(function << ": " << hits << " hits, " << misses << " misses, " << bentUp << " rays bent back out, " << straight << " straight");
+        CHECK(hits > 1000);
+        CHECK(misses > 50);
+        CHECK(bentUp > 50);
+        CHECK(checked == hits);
+    }
+    // A bend of 0 is the straight march, bit for bit; the errors.
+    const MesoMaps maps = buildMesoMaps(mesoFunctionField("grating", 32, 16), mesoMapOptionsFor(MesoTechnique{}, true, ConeSet{4, 1, false, false}));
+    const glm::dvec3 o(3.3, 7.1, 16.0), d = glm::normalize(glm::dvec3(0.7, 0.2, -0.3));
+    const MesoHit a = marchMesoBent<float>(maps, MesoTechnique{}, o, d, 0.0), b = marchMeso<float>(maps, MesoTechnique{}, o, d);
+    CHECK((a.hit == b.hit && a.t == b.t && a.iterations == b.iterations));
+    CHECK_THROWS_WITH(marchMesoBent<float>(maps, MesoTechnique{}, o, -d, 0.0), Contains("must enter at the top"));
+    CHECK_THROWS_WITH(marchMesoBent<float>(maps, MesoTechnique{}, o, d, std::nan("")), Contains("finite bend"));
+    MesoTechnique relief;
+    relief.method = MesoMethod::Relief;
+    CHECK_THROWS_WITH(marchMesoBent<float>(maps, relief, o, d, 0.0), Contains("DDM over a height field only"));
+    const MesoMaps noShadow = buildMesoMaps(mesoFunctionField("grating", 16, 8), mesoMapOptionsFor(MesoTechnique{}, false, ConeSet{4, 1, false, false}));
+    CHECK_THROWS_WITH(marchMesoBent<float>(noShadow, MesoTechnique{}, glm::dvec3(1, 1, 8), d, -0.01), Contains("needs shadow cones"));
+}
+
 TEST_CASE("a frame mesh's shape is its surface's second fundamental form in the texture's coordinates", "[meso][frame][silhouette]") {
     // Face placement with repeat (2, 3): (s, t) = (2 u, 3 v), so n . P_ss = n . f_uu / 4 and so
     // on, against OpenSubdiv's second derivatives of the limit surface (no displacement).
@@ -339,6 +460,31 @@ TEST_CASE("a frame mesh's shape is its surface's second fundamental form in the 
     CHECK(worstK < 1e-3 * scaleK);
     // A torus is convex on its outside: somewhere both directions are negative.
     CHECK(std::any_of(fm.corners.begin(), fm.corners.end(), [](const FrameVertex& v) { return v.shape.x < 0 && v.shape.z < 0; }));
+}
+
+TEST_CASE("principal curvatures do not depend on the chart: Spot by its UVs and per face", "[meso][frame][silhouette]") {
+    // Through a sheared, rotated UV chart (M^-T II M^-1 with G from pS, pT) and through the
+    // face's own (u, v): the shape operator's eigenvalues are the surface's, the same at every
+    // corner (the same tessellation), to the differences' error.
+    const Built b(dmtest::shape("spot_control_mesh"), 2.0);
+    const UvMap uv(b.mesh);
+    FrameMeshOptions byUv{FramePlacement::Uv, {8.0, 8.0}, NormalMode::Accurate}, byFace{FramePlacement::Face, {3.0, 5.0}, NormalMode::Accurate};
+    byUv.shape = byFace.shape = true;
+    const FrameMesh a = buildFrameMesh(b.surface, b.tess, &uv, byUv), c = buildFrameMesh(b.surface, b.tess, nullptr, byFace);
+    REQUIRE(a.corners.size() == c.corners.size());
+    std::vector<double> diff;
+    for (std::size_t i = 0; i < a.corners.size(); ++i) {
+        const glm::dvec2 ka = principalCurvatures(a.corners[i]), kc = principalCurvatures(c.corners[i]);
+        diff.push_back(glm::length(ka - kc) / (1.0 + glm::length(kc)));
+        CHECK(a.corners[i].shape.w == std::min(ka.x, 0.0));
+    }
+    std::sort(diff.begin(), diff.end());
+    INFO("median " << diff[diff.size() / 2] << ", 99.9th percentile " << diff[diff.size() * 999 / 1000] << ", worst " << diff.back());
+    // Both take the same differences in the face's (u, v) and differ in the chart they go
+    // through: rounding (6e-11 at worst here); a corner nudged off a singular UV chart would be
+    // evaluated 1e-3 away in one of them (none on Spot).
+    CHECK(diff[diff.size() * 999 / 1000] < 1e-10);
+    CHECK(diff.back() < 1e-8);
 }
 
 TEST_CASE("frame meshes of hard shapes: creases, boundaries, poles, N-gons", "[meso][frame]") {
@@ -480,6 +626,17 @@ TEST_CASE("a mesostructure scene's base surface", "[meso][frame][scene]") {
         CHECK_THROWS_WITH(parse(R"({"mesostructure": {}, "effects": {"silhouettes": true}})"),
                           Contains("'effects.silhouettes' needs a 'base'"));
         CHECK_THROWS_WITH(parse(scene + R"(, "effects": {"silhouettes": 1}})"), Contains("'effects.silhouettes' must be true or false"));
+        // Bent rays: the base's curvature too, and the DDM's shadow cones (a ray bent back up).
+        const MesoSceneDesc bent = parse(scene + R"(, "effects": {"bentRays": true}})");
+        CHECK((bent.bentRays && !bent.silhouettes && bent.placement.shape));
+        CHECK(buildMesoSceneMaps(bent).ddm.cones.shadow);
+        CHECK_FALSE(buildMesoSceneMaps(parse(scene + "}")).ddm.cones.shadow);
+        CHECK_THROWS_WITH(parse(R"({"mesostructure": {}, "effects": {"bentRays": true}})"), Contains("'effects.bentRays' needs a 'base'"));
+        CHECK_THROWS_WITH(parse(scene + R"(, "effects": {"bentRays": true, "technique": "pom"}})"),
+                          Contains("'effects.bentRays' needs the technique \"ddm\""));
+        CHECK_THROWS_WITH(parse(R"({"mesostructure": {"mesh": "../chainmail.obj"}, "base": {"mesh": "builtin:torus", "placement": "face"},
+                                   "camera": {"eye": [0, 0, -5], "up": [0, 1, 0]}, "effects": {"bentRays": true}})"),
+                          Contains("marched along straight rays: no 'effects.bentRays'"));
     }
     SECTION("bad base objects") {
         const auto bad = [](const std::string& base, const std::string& why) {

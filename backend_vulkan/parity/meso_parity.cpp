@@ -64,6 +64,7 @@ struct Push {
 };
 static_assert(sizeof(Push) == 76);
 constexpr std::int32_t kSolidMethod = 4; // parity_meso.comp's method of the solid's march
+constexpr std::int32_t kBentMethod = 5; // and of the DDM along a bent ray
 
 constexpr double kMesoFusedBound = 8; // parity.cpp's bound for other devices, in ULP of max(|t|, 1)
 
@@ -131,6 +132,25 @@ std::vector<GpuRay> viewRays(const MesoHeightField& f, std::size_t n, RayGen& g)
     return rays;
 }
 
+// View rays from the top, bent by a curved base (o.w: the bend, kern::dmShellBend): convex and
+// concave, weak and strong (1 to 16 chords), grazing and steep, and an eighth of them straight
+// (bend 0: the straight march itself).
+std::vector<GpuRay> bentRays(const MesoHeightField& f, std::size_t n, RayGen& g) {
+    const double W = f.width, H = f.height;
+    std::vector<GpuRay> rays;
+    rays.reserve(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        GpuRay r{};
+        const glm::vec3 o(g.uniform(-W, 2.0 * W), g.uniform(-H, 2.0 * H), float(f.layers));
+        const glm::vec3 d = g.direction(-(i % 3 == 0 ? g.uniform(0.01, 0.1) : g.uniform(0.1, 1.0)));
+        const float bend = i % 8 == 0 ? 0.0f : (i % 2 == 0 ? -1.0f : 1.0f) * std::exp(g.uniform(-9.0, -1.0));
+        r.o = glm::vec4(o, bend);
+        r.d = glm::vec4(d, 0.0f);
+        rays.push_back(r);
+    }
+    return rays;
+}
+
 // Shadow rays (d.z > 0) from on or just above the surface, some grazing, some from the air.
 std::vector<GpuRay> shadowRays(const MesoHeightField& f, std::size_t n, RayGen& g) {
     const double W = f.width, H = f.height;
@@ -190,7 +210,7 @@ struct Row {
     const char* name;
     Maps maps; // isotropic DDM or 4 x 1 + shadow cones, of the field or of the solid
     MesoTechnique tq;
-    int rays; // 0 view, 1 shadow, 2 half and half
+    int rays; // 0 view, 1 shadow, 2 half and half, 3 bent view rays (marchMesoBent)
 };
 
 MesoTechnique technique(MesoMethod m, int iterations, double eps, bool quadrics, int exitRule) {
@@ -229,6 +249,8 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
         {"march Ddm 4x1+shadow shadow rays t+d", C, technique(DDM, 128, -1, false, 0), 1},
         {"march Ddm isotropic quadrics exit(v)+d", I, technique(DDM, 128, -1, true, 1), 2},
         {"march Ddm isotropic no quadrics t+d", I, technique(DDM, 128, -1, false, 0), 2},
+        {"march Ddm 4x1 quadrics bent rays", C, technique(DDM, 128, kMesoChordError, true, 1), 3},
+        {"march Ddm 4x1 no quadrics bent rays t+d", C, technique(DDM, 128, kMesoChordError, false, 0), 3},
         {"march Relief 32 + 6", C, relief, 0},
         {"march POM 32", C, pom, 0},
         {"march Solid 4x1 exit(v)+d", S, technique(DDM, 256, -1, false, 1), 0},
@@ -259,7 +281,7 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
     const MesoSolid solid = anySolid ? mesoParitySolid() : MesoSolid{};
 
     RayGen g(opt.seed ^ 0x6d65736fULL);
-    const std::vector<GpuRay> view = viewRays(field, n, g), shadow = shadowRays(field, n, g);
+    const std::vector<GpuRay> view = viewRays(field, n, g), shadow = shadowRays(field, n, g), bent = bentRays(field, n, g);
     const auto half = [&](const std::vector<GpuRay>& a, const std::vector<GpuRay>& b) {
         std::vector<GpuRay> m(a.begin(), a.begin() + static_cast<std::ptrdiff_t>(n / 2));
         m.insert(m.end(), b.begin(), b.begin() + static_cast<std::ptrdiff_t>(n - n / 2));
@@ -285,14 +307,14 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
         for (const Row* row : selected) {
             if (row->maps != kind) continue;
             const std::vector<GpuRay>& rays = isSolid ? (row->rays == 0 ? solidView : row->rays == 1 ? solidShadow : solidMixed)
-                                                      : (row->rays == 0 ? view : row->rays == 1 ? shadow : mixed);
+                                                      : (row->rays == 0 ? view : row->rays == 1 ? shadow : row->rays == 3 ? bent : mixed);
             rayBuf.upload(rays.data(), rays.size() * sizeof(GpuRay));
             const auto count = static_cast<std::uint32_t>(rays.size());
             const std::uint32_t groupsX = std::min<std::uint32_t>((count + 63) / 64, 32768);
             const std::uint32_t groupsY = (count + groupsX * 64 - 1) / (groupsX * 64);
             const MesoTechnique& tq = row->tq;
             const Push push{vulkan::mesoGpuSize(maps),
-                            isSolid ? kSolidMethod : static_cast<std::int32_t>(tq.method),
+                            isSolid ? kSolidMethod : row->rays == 3 ? kBentMethod : static_cast<std::int32_t>(tq.method),
                             tq.iterations,
                             static_cast<float>(tq.eps),
                             tq.quadrics ? 1 : 0,
@@ -323,6 +345,8 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
                                                                 glm::dvec3(d), tq.iterations, tq.exitRule);
                     cpu = h;
                     triangle = h.triangle;
+                } else if (row->rays == 3) {
+                    cpu = marchMesoBent<float>(maps, tq, glm::dvec3(o), glm::dvec3(d), double(rays[i].o.w));
                 } else {
                     cpu = marchMeso<float>(maps, tq, glm::dvec3(o), glm::dvec3(d));
                 }
@@ -349,7 +373,7 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
                 if (err > res.maxUlp || (!same && res.worstInput.empty())) {
                     res.maxUlp = err;
                     std::ostringstream s;
-                    s << std::setprecision(9) << "o=" << vec(o) << " d=" << vec(d) << ": cpu hit " << cpu.hit << " t " << tc << " n "
+                    s << std::setprecision(9) << "o=" << vec(o) << " d=" << vec(d) << " bend " << rays[i].o.w << ": cpu hit " << cpu.hit << " t " << tc << " n "
                       << cpu.iterations << " triangle " << triangle << ", gpu hit " << gpu[i].x << " t " << tg << " n " << gpu[i].z << " triangle "
                       << static_cast<int>(gpu[i].w) - 1 << std::hexfloat << " (" << tc << " vs " << tg << ")";
                     res.worstInput = s.str();

@@ -76,13 +76,18 @@ void validateScene(const Context& ctx, const MesoRenderOptions& o) {
             if (!(sum <= kMaxDrawValue))
                 throw ArgumentError("meso renderer: base mesh corner " + std::to_string(i) + " has a value that is not finite or beyond +-" +
                                     dispmap::detail::drawNumber(kMaxDrawValue) + " (the GPU holds it as a float)");
+            if (o.base->shaped && !(v.shape.w <= 0))
+                throw ArgumentError("meso renderer: base mesh corner " + std::to_string(i) +
+                                    ": its most convex principal curvature (FrameVertex::shape.w) is positive");
             if (!(frameIndependence(v.pS, v.pT, v.normal) >= kMinFrameIndependence) || !(std::abs(glm::length(v.normal) - 1.0) < 1e-3))
                 throw ArgumentError("meso renderer: base mesh corner " + std::to_string(i) + ": its frame is singular or its normal not of unit length");
         }
     }
-    if (o.silhouettes && !(o.base && o.base->shaped))
-        throw ArgumentError(o.base ? "meso renderer: silhouettes need the base mesh's curvature (FrameMeshOptions::shape)"
-                                   : "meso renderer: silhouettes need a curved base mesh (the plane has none)");
+    if ((o.silhouettes || o.bentRays) && !(o.base && o.base->shaped)) {
+        const std::string what = o.bentRays ? "bent rays" : "silhouettes";
+        throw ArgumentError(o.base ? "meso renderer: " + what + " need the base mesh's curvature (FrameMeshOptions::shape)"
+                                   : "meso renderer: " + what + " need a curved base mesh (the plane has none)");
+    }
     if (!(o.camera.fovYDeg > 0 && o.camera.fovYDeg < 180)) throw ArgumentError("meso renderer: field of view must be in (0, 180) degrees");
     if (!(glm::length(o.lightDirection) > 0) || !std::isfinite(glm::length(o.lightDirection)))
         throw ArgumentError("meso renderer: the light direction must be finite and non-zero");
@@ -104,6 +109,10 @@ void validateLook(const Context& ctx, const MesoMaps& maps, const MesoLook& o, c
         throw ArgumentError("meso renderer: a solid (non-height-field) mesostructure is marched by the DDM (technique 'ddm'); the others read heights");
     if (maps.isSolid() && o.normalMap)
         throw ArgumentError("meso renderer: a solid (non-height-field) mesostructure is shaded by its own normals; a normal map needs a height field");
+    if (scene.bentRays && (t.method != MesoMethod::Ddm || maps.isSolid()))
+        throw ArgumentError("meso renderer: bent rays are marched by the DDM (technique 'ddm') over a height field, not by this part's technique or over a solid");
+    if (scene.bentRays && !maps.ddm.grid.empty() && !maps.ddm.cones.isotropic && !maps.ddm.cones.shadow)
+        throw ArgumentError("meso renderer: bent rays rise again where the base is convex: their DDM needs shadow cones (ConeSet::shadow) or to be isotropic");
     if (!(o.depth > 0) || !std::isfinite(o.depth)) throw ArgumentError("meso renderer: the slab depth must be finite and > 0");
     // The maps the technique reads (buildMesoMaps leaves out what its options do not ask for).
     const bool ddm = t.method == MesoMethod::Ddm || o.shadows,
@@ -314,7 +323,8 @@ struct MesoRenderer::Impl {
                                g.look.albedo ? 1u : 0u,
                                g.look.normalMap ? 1u : 0u,
                                g.solid ? 1u : 0u,
-                               options.silhouettes ? 1u : 0u};
+                               options.silhouettes ? 1u : 0u,
+                               options.bentRays ? 1u : 0u};
             d.stages = {{VK_SHADER_STAGE_VERTEX_BIT, options.base ? std::span<const std::uint32_t>(meso_base_vert_spv)
                                                                   : std::span<const std::uint32_t>(meso_vert_spv), false},
                         {VK_SHADER_STAGE_FRAGMENT_BIT, meso_frag_spv, true}};
@@ -440,16 +450,18 @@ MesoImage MesoRenderer::render() {
     out.rayOrigin.resize(pixels);
     out.rayDir.resize(pixels);
     out.part.resize(pixels);
+    out.bend.resize(pixels);
     for (std::size_t i = 0; i < pixels; ++i) {
         out.covered[i] = origin[i].w > 0.5f ? 1 : 0;
         out.iterations[i] = counts[i].x;
         out.shadowIterations[i] = counts[i].y;
-        out.shadowed[i] = counts[i].z ? 1 : 0;
+        out.shadowed[i] = (counts[i].z & 1u) ? 1 : 0;
         out.hit[i] = counts[i].w == 1u ? 1 : 0;
         out.cut[i] = counts[i].w == 2u ? 1 : 0;
         out.rayOrigin[i] = glm::vec3(origin[i]);
         out.rayDir[i] = glm::vec3(dir[i]);
-        out.part[i] = static_cast<std::uint8_t>(std::clamp(dir[i].w, 0.0f, 255.0f));
+        out.part[i] = static_cast<std::uint8_t>(counts[i].z >> 1);
+        out.bend[i] = dir[i].w;
     }
     return out;
 }

@@ -43,6 +43,8 @@ struct CurvedCell {
     std::vector<double> texelError; ///< |planar hit - exact hit| in texels of the texture, where both hit
     std::size_t rays = 0, falseHits = 0, falseMisses = 0;
     std::size_t cutFalseHits = 0, cutFalseMisses = 0; ///< the same with silhouettes (dmShellExit)
+    std::vector<double> bentError;                      ///< the bent march's (marchMesoBent) hit against the exact one
+    std::size_t bentFalseHits = 0, bentFalseMisses = 0;
 };
 
 // The cylinder's exact first hit of the ray P + t D (t >= 0, P on the outer surface), as the
@@ -91,15 +93,20 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
            "exact ray leaves the shell (a silhouette the planar march fills in); with silhouettes "
            "(MesoRenderOptions::silhouettes): the same march, its hit dropped past the point where the ray leaves the shell "
            "modelled by the cylinder's second fundamental form and principal curvature (kern::dmShellExit: the cylinder's exact top), false hits and false misses (the exact ray "
-           "hits, the cut march does not).\n\n";
+           "hits, the cut march does not). Bent: the march along the ray bent by the same quadric (MesoRenderOptions::bentRays, "
+           "marchMesoBent: chords of the parabola the straight world ray is in the slab's own coordinates), its hit in those "
+           "coordinates against the exact one.\n\n";
     const MesoHeightField field = mesoFunctionField("grating", 64, 16);
-    MesoMapOptions mo = mesoMapOptionsFor(MesoTechnique{}, false, parseConeSet("4x1"));
+    // With shadow cones: the bent march's chords rise again where the cylinder curves away (the
+    // view cones, and the straight march, are the same without them).
+    MesoMapOptions mo = mesoMapOptionsFor(MesoTechnique{}, true, parseConeSet("4x1"));
     const MesoMaps maps = buildMesoMaps(field, mo);
     MesoTechnique tq;
     tq.iterations = 1024;
     const double incidence[][2] = {{0.0, 30.0}, {30.0, 60.0}, {60.0, 80.0}};
-    out << "| delta / R | incidence | error p50 | error p90 | false hits | false hits, silhouettes | false misses, silhouettes |\n"
-           "|---|---|---|---|---|---|---|\n";
+    out << "| delta / R | incidence | error p50 | error p90 | false hits | false hits, silhouettes | false misses, silhouettes | "
+           "bent: error p50 | bent: error p90 | bent: false hits | bent: false misses |\n"
+           "|---|---|---|---|---|---|---|---|---|---|---|\n";
     std::mt19937 gen(2026);
     std::uniform_real_distribution<double> u01(0.0, 1.0);
     for (const double ratio : {0.003, 0.01, 0.03, 0.1, 0.3}) {
@@ -127,13 +134,21 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
                 // With silhouettes: the cylinder's second fundamental form in (s, t) is
                 // (n . P_ss, n . P_st, n . P_tt) = (-T^2 / R, 0, 0), its most convex principal
                 // curvature -1 / R (FrameVertex::shape).
-                const double exitT = kern::dmShellExit(o, d, o, glm::dvec4(-T * T / R, 0.0, 0.0, -1.0 / R), vpu, double(field.layers));
+                // As the renderer takes it (kern::dmShellLimit: unchanged up to delta / R = 0.5).
+                const glm::dvec4 shape = kern::dmShellLimit(glm::dvec4(-T * T / R, 0.0, 0.0, -1.0 / R), vpu, double(field.layers), kShellCurvatureLimit);
+                const double exitT = kern::dmShellExit(o, d, o, shape, vpu, double(field.layers));
                 const bool cutHit = planar.hit && !(exitT >= 0 && planar.t > exitT);
                 if (cutHit && !exactHits) ++cell.cutFalseHits;
                 if (!cutHit && exactHits) ++cell.cutFalseMisses;
+                // With bent rays: the same DDM march along the parabola of the same quadric.
+                glm::dvec3 slab(0.0);
+                const MesoHit bent = marchMesoBent<double>(maps, tq, o, d, kern::dmShellBend(d, shape, vpu), &slab);
+                if (bent.hit && !exactHits) ++cell.bentFalseHits;
+                if (!bent.hit && exactHits) ++cell.bentFalseMisses;
                 if (planar.hit && exactHits) {
                     cell.texelError.push_back(glm::length(planar.point(o, d) - exact));
                 }
+                if (bent.hit && exactHits) cell.bentError.push_back(glm::length(slab - exact));
             }
             std::ostringstream row;
             row << std::setprecision(3) << "| " << ratio << " | " << band[0] << "–" << band[1] << "° | " << percentileOf(cell.texelError, 0.5)
@@ -141,7 +156,10 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
                 << 100.0 * static_cast<double>(cell.falseHits) / static_cast<double>(cell.rays) << " %"
                 << (cell.falseMisses ? " (" + std::to_string(cell.falseMisses) + " false misses)" : "") << " | "
                 << 100.0 * static_cast<double>(cell.cutFalseHits) / static_cast<double>(cell.rays) << " % | "
-                << 100.0 * static_cast<double>(cell.cutFalseMisses) / static_cast<double>(cell.rays) << " % |\n";
+                << 100.0 * static_cast<double>(cell.cutFalseMisses) / static_cast<double>(cell.rays) << " % | " << std::defaultfloat
+                << std::setprecision(3) << percentileOf(cell.bentError, 0.5) << " | " << percentileOf(cell.bentError, 0.9) << " | " << std::fixed
+                << std::setprecision(1) << 100.0 * static_cast<double>(cell.bentFalseHits) / static_cast<double>(cell.rays) << " % | "
+                << 100.0 * static_cast<double>(cell.bentFalseMisses) / static_cast<double>(cell.rays) << " % |\n";
             out << row.str();
         }
     }
@@ -162,21 +180,22 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
         o.frames = args.gpuFrames;
         const auto stats = [&](const vulkan::MesoImage& im) {
             double it = 0, sit = 0;
-            std::size_t covered = 0;
+            std::size_t covered = 0, hits = 0;
             for (std::size_t i = 0; i < im.covered.size(); ++i)
                 if (im.covered[i]) {
                     it += im.iterations[i];
                     sit += im.shadowIterations[i];
                     ++covered;
+                    hits += im.hit[i];
                 }
             std::ostringstream r;
-            r << std::fixed << std::setprecision(2) << im.gpuMs << " ms | " << covered << " | "
+            r << std::fixed << std::setprecision(2) << im.gpuMs << " ms | " << covered << " | " << hits << " | "
               << it / static_cast<double>(std::max<std::size_t>(covered, 1)) << " | " << sit / static_cast<double>(std::max<std::size_t>(covered, 1));
             return r.str();
         };
         out << "\nThe renderer (" << ctx.deviceName() << ", " << o.width << " x " << o.height << ", DDM 4x1 + quadrics, shadows, median of "
             << o.frames << " frames; covered: pixels the base covers, back faces included; iterations over them):\n\n"
-            << "| base | GPU time | pixels covered | view iterations (mean) | shadow iterations (mean) |\n|---|---|---|---|---|\n";
+            << "| base | GPU time | pixels covered | hits | view iterations (mean) | shadow iterations (mean) |\n|---|---|---|---|---|---|\n";
         // The plane beside it: the bricks scene's camera and light, the default checker.
         vulkan::MesoRenderOptions plane = o;
         plane.camera = vulkan::MesoCamera{};
@@ -188,6 +207,18 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
         o.base = base;
         out << "| Spot (" << base->triangleCount() << " triangles, built in " << std::fixed << std::setprecision(2) << baseS << " s) | "
             << stats(vulkan::renderMeso(ctx, m, o)) << " |\n";
+        // The same with the base's curvature (FrameMeshOptions::shape): silhouettes, bent rays.
+        MesoSceneDesc shaped = s;
+        shaped.placement.shape = true;
+        const auto t1 = std::chrono::steady_clock::now();
+        o.base = buildMesoSceneBase(shaped);
+        const double shapedS = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+        o.silhouettes = true;
+        out << "| Spot, silhouettes (the base with its curvature built in " << std::setprecision(2) << shapedS << " s) | "
+            << stats(vulkan::renderMeso(ctx, m, o)) << " |\n";
+        o.silhouettes = false;
+        o.bentRays = true;
+        out << "| Spot, bent rays | " << stats(vulkan::renderMeso(ctx, m, o)) << " |\n";
     } catch (const Error& e) {
         out << "\n(no renderer rows: " << e.what() << ")\n";
     }

@@ -39,6 +39,7 @@ inline vulkan::MesoRenderOptions mesoSceneRenderOptions(const MesoSceneDesc& s) 
     o.lightDirection = s.light;
     o.tileSize = s.tile;
     o.silhouettes = s.silhouettes;
+    o.bentRays = s.bentRays;
     return o;
 }
 

@@ -98,9 +98,11 @@ int renderMesoCommand(const RenderArgs& a, const nlohmann::json& j) {
     }
     const auto cut = std::count(im.cut.begin(), im.cut.end(), std::uint8_t{1});
     std::cout << "  " << im.width << " x " << im.height << ": GPU time " << fixed(im.gpuMs, 3) << " ms (median of " << im.frames << " frames)"
-              << (scene.options.silhouettes ? ", silhouettes: " + std::to_string(cut) + " pixels whose march hit past the shell's exit (a miss), the slab meets itself at " +
-                                                  std::to_string(foldedCorners(*o.base, o.depth)) + " corners (concave radius below its depth)"
-                                            : "")
+              << (o.bentRays ? ", bent rays" : "")
+              << (o.silhouettes && !o.bentRays ? ", silhouettes: " + std::to_string(cut) + " pixels whose march hit past the shell's exit (a miss)" : "")
+              << (o.silhouettes || o.bentRays ? ", the slab meets itself at " + std::to_string(foldedCorners(*o.base, o.depth)) +
+                                                    " corners (concave radius below its depth)"
+                                              : "")
               << (a.output.empty() ? "" : ", wrote " + a.output) << "\n";
     int status = 0;
     for (const std::string& m : ctx->takeValidationMessages()) {

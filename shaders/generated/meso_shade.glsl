@@ -97,6 +97,32 @@ DM_TFUNC rvec3 dmFrameVoxelNormal(rvec3 nv, rvec3 pS, rvec3 pT, rvec3 n, rvec3 v
     return m * (real(1) / sqrt(dmDot3(m, m)));
 }
 
+// The shape of a base (FrameVertex::shape) with its curvature limited to `limit` / slab depth:
+// where the base's most convex radius is below depth / limit, K and m are scaled down together
+// so that it is depth / limit. The locally quadric shell is an offset of a ball of that radius;
+// where the slab is deeper than a fair share of the radius (a thin muzzle or ear under a thick
+// slab) the ball leaves out surface that the true base still has along the ray's path, and a
+// ray bent by it leaves too early: a hole inside the object's outline. The slab's depth in world
+// units is L / vpu.z.
+DM_TFUNC rvec4 dmShellLimit(rvec4 shape, rvec3 voxelsPerUnit, real L, real limit) {
+    real k = -shape.w * (L / voxelsPerUnit.z); // the most convex curvature times the depth
+    return k > limit ? shape * (limit / k) : shape;
+}
+
+// The bend of the ray p + t d in the shell's own coordinates (dmShellExit's quadric, below): the
+// coefficient a of t^2 in F along the ray, (1/2) (d_h^T K d_h + m d.z^2), voxels^-1. In the
+// slab's coordinates, where the top lies at z = L everywhere, the straight world ray from the
+// entry o is the parabola o + t d - a t^2 z (dmMesoMarchDdmBent): a < 0 along a convex
+// direction (the ray rises back to the top and leaves), a > 0 along a concave one.
+DM_TFUNC real dmShellBend(rvec3 d, rvec4 shape, rvec3 voxelsPerUnit) {
+    real kxx = shape.x * (voxelsPerUnit.z / (voxelsPerUnit.x * voxelsPerUnit.x));
+    real kxy = shape.y * (voxelsPerUnit.z / (voxelsPerUnit.x * voxelsPerUnit.y));
+    real kyy = shape.z * (voxelsPerUnit.z / (voxelsPerUnit.y * voxelsPerUnit.y));
+    real m = shape.w / voxelsPerUnit.z;
+    rvec2 kd = rvec2(kxx * d.x + kxy * d.y, kxy * d.x + kyy * d.y);
+    return real(0.5) * ((d.x * kd.x + d.y * kd.y) + m * (d.z * d.z));
+}
+
 // Where the ray p + t d (voxel space, t >= 0) leaves a curved base's shell through its top: the
 // silhouette of the detail itself. The march itself stays locally planar (Donnelly §8.3.1); the
 // shell's top is modelled around the entry point o by a quadric with the base's second
@@ -122,10 +148,9 @@ DM_TFUNC real dmShellExit(rvec3 p, rvec3 d, rvec3 o, rvec4 shape, rvec3 voxelsPe
     real ey = p.y - o.y;
     real zh = min(p.z - top, real(0));
     rvec2 ke = rvec2(kxx * ex + kxy * ey, kxy * ex + kyy * ey);
-    rvec2 kd = rvec2(kxx * d.x + kxy * d.y, kxy * d.x + kyy * d.y);
     real c = max(real(0.5) * ((ex * ke.x + ey * ke.y) + m * (zh * zh)) - zh, real(0));
     real b = ((d.x * ke.x + d.y * ke.y) + m * (zh * d.z)) - d.z;
-    real a = real(0.5) * ((d.x * kd.x + d.y * kd.y) + m * (d.z * d.z));
+    real a = dmShellBend(d, shape, voxelsPerUnit);
     real disc = b * b - real(4) * a * c;
     real best = real(-1);
     if (disc >= real(0)) {

@@ -147,7 +147,15 @@ DmMesoHit dmMarchDistanceMap(DmMesoSize s, vec3 o, vec3 d, int iterations, float
 }
 DmMesoHit dmMarchDdm(DmMesoSize s, vec3 o, vec3 d, int maxIterations, bool quadrics, int exitRule) {
     DmMesoHit r;
-    r.hit = dmMesoMarchDdm(s, o, d, s.coneM, s.coneN, maxIterations, quadrics, exitRule, s.tol, r.t, r.iterations);
+    r.hit = dmMesoMarchDdm(s, o, d, s.coneM, s.coneN, maxIterations, quadrics, exitRule, s.tol, 3.0e38, r.t, r.iterations);
+    return r;
+}
+// The DDM march along the ray bent by the base's curvature (bend: dmShellBend); p: the hit in
+// the slab's coordinates (t is the straight ray's).
+DmMesoHit dmMarchDdmBent(DmMesoSize s, vec3 o, vec3 d, float bend, int maxIterations, bool quadrics, int exitRule, float chordError,
+                         out vec3 p) {
+    DmMesoHit r;
+    r.hit = dmMesoMarchDdmBent(s, o, d, bend, s.coneM, s.coneN, maxIterations, quadrics, exitRule, s.tol, chordError, r.t, p, r.iterations);
     return r;
 }
 // A solid's march (DDM with the triangles of its 0 voxels); triangle and uv: the triangle hit.

@@ -12,7 +12,9 @@
 // depth is the hit's (dmFramePoint), so the detail occludes and is occluded where it is, and a ray that misses
 // (it leaves through the top, e.g. from a back face) writes the far plane: what lies behind
 // it shows through; with kSilhouettes so does a hit past the point where the ray leaves the
-// curved shell (dmShellExit on the interpolated second fundamental form). Every formula is a kernel (kernels/meso.h, kernels/meso_shade.h);
+// curved shell (dmShellExit on the interpolated second fundamental form); with kBentRays the
+// DDM marches the view ray bent by that curvature in the slab's own coordinates (it then leaves
+// the shell by itself). Every formula is a kernel (kernels/meso.h, kernels/meso_shade.h);
 // march.glsl holds the loops.
 #extension GL_GOOGLE_include_directive : require
 #define DM_MESO_SET 0
@@ -37,6 +39,7 @@ layout(constant_id = 10) const bool kAlbedo = false;    // the albedo image (bin
 layout(constant_id = 11) const bool kNormalMap = false; // the normal map (binding 7 from params.dims2.y on) shades, else the height field's normal
 layout(constant_id = 12) const bool kSolid = false;     // a non-height-field solid (bindings 8, 9): its DDM march (kMethod 1) and corner normals
 layout(constant_id = 13) const bool kSilhouettes = false; // on a base mesh: hits past where the ray leaves the curved shell are misses (dmShellExit)
+layout(constant_id = 14) const bool kBentRays = false;  // on a base mesh, the DDM on a height field: the view ray bent by the base's curvature (dmMesoMarchDdmBent)
 
 layout(location = 0) in vec3 worldPos;
 layout(location = 1) in vec2 tex;
@@ -47,8 +50,8 @@ layout(location = 5) in vec4 frameShape;
 layout(location = 0) out vec4 outColor;
 layout(location = 1) out vec4 outHit;    // voxel-space hit point, t (w = -1: the ray missed)
 layout(location = 2) out vec4 outOrigin; // the view ray in voxel space: o, 1
-layout(location = 3) out vec4 outDir;    // d, the part
-layout(location = 4) out uvec4 outCounts; // view iterations, shadow iterations, shadowed, hit (1; 2: a hit past the shell's exit, a miss)
+layout(location = 3) out vec4 outDir;    // d, the bend (kBentRays; else 0)
+layout(location = 4) out uvec4 outCounts; // view iterations, shadow iterations, shadowed + 2 x the part, hit (1; 2: a hit past the shell's exit, a miss)
 
 void main() {
     DmMesoSize s;
@@ -81,6 +84,10 @@ void main() {
     DmMesoHit h;
     int entry = -1; // the solid's triangle hit (-1: the floor, or none)
     vec2 bary = vec2(0.0);
+    float bend = 0.0;           // the view ray's bend (kBentRays)
+    // The base's curvature where the slab reads it, limited to half its depth (dmShellLimit; 0.5: kShellCurvatureLimit).
+    vec4 shell = dmShellLimit(frameShape, vpu, float(s.layers), 0.5);
+    vec3 bentPoint = vec3(0.0); // its hit in the slab's coordinates
     if (kBase != 0 && !(d.z < 0.0)) {
         // Seen from below the base (a back face): the ray leaves through the top at once.
         h.hit = false;
@@ -93,18 +100,22 @@ void main() {
         h = sh.h;
         entry = sh.triangle;
         bary = sh.uv;
+    } else if (kMethod == 1 && kBentRays && kBase != 0) {
+        bend = dmShellBend(d, shell, vpu);
+        h = dmMarchDdmBent(s, o, d, bend, kIterations, kQuadrics, kExitRule, 0.05, bentPoint); // 0.05: kMesoChordError
     } else if (kMethod == 1) {
         h = dmMarchDdm(s, o, d, kIterations, kQuadrics, kExitRule);
     } else {
         h = dmMarchHeightSearch(s, o, d, kLinear, kMethod == 3 ? -1 : kBinary);
     }
     outOrigin = vec4(o, 1.0);
-    outDir = vec4(d, float(params.dims2.z)); // w: which of the renderer's mesostructures drew the pixel
+    outDir = vec4(d, bend);
+    uint part = uint(params.dims2.z) << 1u; // which of the renderer's mesostructures drew the pixel
     // The silhouette: a hit beyond the point where the ray has left the curved shell through
     // its top is not seen (the ray went on into what lies behind).
     uint cut = 0u;
-    if (kBase != 0 && kSilhouettes && h.hit) {
-        float exitT = dmShellExit(o, d, o, frameShape, vpu, float(s.layers));
+    if (kBase != 0 && kSilhouettes && !kBentRays && h.hit) {
+        float exitT = dmShellExit(o, d, o, shell, vpu, float(s.layers));
         if (exitT >= 0.0 && h.t > exitT) {
             h.hit = false;
             cut = 2u;
@@ -113,11 +124,15 @@ void main() {
     if (!h.hit) {
         outColor = params.background;
         outHit = vec4(0.0, 0.0, 0.0, -1.0);
-        outCounts = uvec4(uint(h.iterations), 0u, 0u, cut);
-        gl_FragDepth = kBase == 0 ? gl_FragCoord.z : 1.0;
+        outCounts = uvec4(uint(h.iterations), 0u, part, cut);
+        // A miss writes the far plane; a cut one just in front of it, so that the record of the
+        // cut (MesoImage::cut) is kept over the back faces and plain misses behind it, whatever
+        // the order the triangles are drawn in, and still loses to any hit.
+        gl_FragDepth = kBase == 0 ? gl_FragCoord.z : (cut != 0u ? 1.0 - 1.0 / 8388608.0 : 1.0);
         return;
     }
-    vec3 p = o + d * h.t;
+    vec3 onRay = o + d * h.t;                  // where the straight ray is at the hit: the world point
+    vec3 p = kBentRays ? bentPoint : onRay;    // where the detail is read
     vec3 axisS = kBase == 0 ? vec3(1.0, 0.0, 0.0) : framePS;
     vec3 axisT = kBase == 0 ? vec3(0.0, 1.0, 0.0) : framePT;
     vec3 axisN = kBase == 0 ? vec3(0.0, 0.0, 1.0) : n0;
@@ -144,7 +159,7 @@ void main() {
     if (kBase == 0) {
         gl_FragDepth = gl_FragCoord.z;
     } else {
-        vec4 clip = params.viewProj * vec4(dmFramePoint(worldPos, p, o, framePS, framePT, n0, vpu), 1.0);
+        vec4 clip = params.viewProj * vec4(dmFramePoint(worldPos, onRay, o, framePS, framePT, n0, vpu), 1.0);
         gl_FragDepth = clamp(clip.z / clip.w, 0.0, 1.0);
     }
     if (kNormalMap) {
@@ -166,8 +181,11 @@ void main() {
                 sh = dmMarchDdm(s, so, sd, kShadowIterations, true, 1);
             }
             if (kBase != 0 && kSilhouettes && sh.hit) {
-                // Past the shell's top the shadow ray is out in the open.
-                float exitT = dmShellExit(so, sd, o, frameShape, vpu, float(s.layers));
+                // Past the shell's top the shadow ray is out in the open. The quadric is centred
+                // where the slab's coordinates are the tangent plane's: the view ray's entry, or
+                // with bent rays (the hit in the curved slab's own coordinates) the hit's column.
+                vec3 centre = kBentRays ? vec3(so.x, so.y, float(s.layers)) : o;
+                float exitT = dmShellExit(so, sd, centre, shell, vpu, float(s.layers));
                 if (exitT >= 0.0 && sh.t > exitT) {
                     sh.hit = false;
                 }
@@ -187,5 +205,5 @@ void main() {
     }
     outColor = vec4(albedo * dmMesoShade(1.0, n, params.light.xyz, params.light.w, lit), 1.0);
     outHit = vec4(p, h.t);
-    outCounts = uvec4(uint(h.iterations), shadowIterations, lit == 0.0 ? 1u : 0u, 1u);
+    outCounts = uvec4(uint(h.iterations), shadowIterations, (lit == 0.0 ? 1u : 0u) | part, 1u);
 }

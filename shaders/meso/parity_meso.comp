@@ -21,7 +21,7 @@ layout(push_constant) uniform Push {
     int coneM;
     int coneN;
     float tol;
-    int method;    // 0 distance map, 1 DDM, 2 relief, 3 POM (MesoMethod's order), 4 the solid's DDM march
+    int method;    // 0 distance map, 1 DDM, 2 relief, 3 POM (MesoMethod's order), 4 the solid's DDM march, 5 the DDM along a bent ray (bend: o.w; eps: the chord error)
     int iterations;
     float eps;
     int quadrics;
@@ -33,7 +33,7 @@ layout(push_constant) uniform Push {
 } pc;
 
 struct Ray {
-    vec4 o; // xyz
+    vec4 o; // xyz; w: the bend (method 5)
     vec4 d; // xyz, unit
 };
 layout(std430, binding = 5) readonly buffer Rays { Ray rays[]; };
@@ -63,6 +63,9 @@ void main() {
         DmMesoSolidHit sh = dmMarchDdmSolid(s, o, d, pc.iterations, pc.exitRule);
         h = sh.h;
         entry = sh.triangle;
+    } else if (pc.method == 5) {
+        vec3 p;
+        h = dmMarchDdmBent(s, o, d, rays[i].o.w, pc.iterations, pc.quadrics != 0, pc.exitRule, pc.eps, p);
     } else if (pc.method == 0) {
         h = dmMarchDistanceMap(s, o, d, pc.iterations, pc.eps);
     } else if (pc.method == 1) {

@@ -19,7 +19,7 @@ TEST_CASE("every mesostructure marcher agrees bit for bit between C++ and the co
     const bool strict = dispmap::parity::strictFor(ctx, opt);
     INFO("device " << ctx.deviceName() << (strict ? " (strict: no FMA contraction)" : ""));
     const auto results = dispmap::parity::runMeso(ctx, opt);
-    REQUIRE(results.size() == 16);
+    REQUIRE(results.size() == 18);
     for (const auto& r : results) {
         INFO(r.kernel << ": " << r.bitExact << " of " << r.inputs << " bit-exact, max " << r.maxUlp << " ULP, worst " << r.worstInput);
         CHECK(r.inputs == 2048);
@@ -811,7 +811,7 @@ std::shared_ptr<const dispmap::FrameMesh> torusBase(int ns, int nt, int segPhi, 
 double tubeDistance(const glm::dvec3& p) { return std::hypot(std::hypot(p.x, p.y) - kRm, p.z); }
 } // namespace
 
-TEST_CASE("silhouettes: no detail drawn outside the curved shell, no holes inside the outline", "[meso][silhouette]") {
+TEST_CASE("silhouettes and bent rays: no detail drawn outside the curved shell, no holes inside the outline", "[meso][silhouette]") {
     // The hard-case field on an exact torus whose slab is a fifth of the tube's radius deep
     // (delta / R = 0.2: the locally planar march draws detail well outside the shell at the
     // outline). Each covered pixel's fragment is found again on the CPU (the triangles its
@@ -828,17 +828,34 @@ TEST_CASE("silhouettes: no detail drawn outside the curved shell, no holes insid
     o.camera.target = {0.0, 0.0, 0.0};
     o.camera.up = {0.0, 0.0, 1.0};
     o.camera.fovYDeg = 50;
+    o.shadows = true;
+    o.lightDirection = {0.9, -0.2, 0.25}; // low: long shadows, and shadow rays that leave the curved top
     const glm::dmat4 inv = glm::inverse(dispmap::vulkan::mesoViewProjection(o));
     const glm::vec3 vpu(dispmap::vulkan::mesoVoxelsPerUnit(shadowMaps(), o));
     const int L = shadowMaps().field.layers;
     struct Count {
-        std::size_t hits = 0, found = 0, outside = 0, cut = 0, coreRays = 0, holes = 0;
+        std::size_t hits = 0, found = 0, outside = 0, cut = 0, coreRays = 0, holes = 0, bentRays = 0, bentSame = 0, bent = 0;
+        std::size_t cutFound = 0, overCut = 0, shadowSame = 0, shadowCut = 0;
         double worst = 0;
     };
-    auto measure = [&](bool silhouettes) {
+    auto measure = [&](bool silhouettes, bool bent) {
         o.silhouettes = silhouettes;
+        o.bentRays = bent;
         const MesoImage img = dispmap::vulkan::renderMeso(ctx, shadowMaps(), o);
         Count c;
+        // Bent rays: the CPU's bent march on each pixel's ray and bend, as the GPU marched it.
+        for (std::size_t i = 0; i < img.covered.size() && bent; ++i) {
+            if (!img.covered[i] || !(img.rayDir[i].z < 0)) continue;
+            ++c.bentRays;
+            glm::dvec3 slab;
+            const dispmap::MesoHit h = dispmap::marchMesoBent<float>(shadowMaps(), o.technique, glm::dvec3(img.rayOrigin[i]),
+                                                                     glm::dvec3(img.rayDir[i]), double(img.bend[i]), &slab);
+            c.bentSame += h.hit == (img.hit[i] != 0) && h.iterations == static_cast<int>(img.iterations[i]) &&
+                                  (!h.hit || (float(h.t) == img.hitPoint[i].w && glm::vec3(slab) == glm::vec3(img.hitPoint[i])))
+                              ? 1u
+                              : 0u;
+            c.bent += img.bend[i] != 0.0f ? 1u : 0u;
+        }
         for (int y = 0; y < o.height; ++y)
             for (int x = 0; x < o.width; ++x) {
                 const std::size_t i = static_cast<std::size_t>(y * o.width + x);
@@ -858,8 +875,8 @@ TEST_CASE("silhouettes: no detail drawn outside the curved shell, no holes insid
                     c.holes += img.hit[i] ? 0u : 1u;
                 }
                 c.cut += img.cut[i];
-                if (!img.hit[i]) continue;
-                ++c.hits;
+                if (!img.hit[i] && !img.cut[i]) continue;
+                c.hits += img.hit[i];
                 // The fragment: the crossed triangle whose frame gives the GPU's ray.
                 for (std::size_t tri = 0; tri < base->corners.size(); tri += 3) {
                     const auto& A = base->corners[tri];
@@ -882,8 +899,52 @@ TEST_CASE("silhouettes: no detail drawn outside the curved shell, no holes insid
                     const glm::vec3 ov = dispmap::kern::dmMesoEntry(glm::vec3(tex, 0.0f), vpu, L);
                     const glm::vec3 dv = dispmap::kern::dmTangentToVoxel(dispmap::kern::dmFrameCoordinates(glm::vec3(wp - o.camera.eye), pS, pT, n), vpu);
                     if (glm::length(ov - img.rayOrigin[i]) > 0.05f || glm::length(dv - img.rayDir[i]) > 1e-3f) continue;
+                    const glm::vec4 shape = dispmap::kern::dmShellLimit(glm::vec4(w0 * A.shape + u * B.shape + v * C.shape), vpu, float(L),
+                                                                        float(dispmap::kShellCurvatureLimit));
+                    if (img.cut[i]) {
+                        // A cut pixel: its planar hit (the CPU's march on the GPU's ray) lies outside
+                        // the exact shell, else the cut took away detail that is there.
+                        ++c.cutFound;
+                        const dispmap::MesoHit h = dispmap::marchMeso<float>(shadowMaps(), o.technique, glm::dvec3(img.rayOrigin[i]),
+                                                                             glm::dvec3(img.rayDir[i]));
+                        const glm::vec3 q = img.rayOrigin[i] + img.rayDir[i] * float(h.t);
+                        const double above = tubeDistance(glm::dvec3(dispmap::kern::dmFramePoint(glm::vec3(wp), q, ov, pS, pT, n, vpu))) - kRt;
+                        c.overCut += !h.hit || above < -0.25 * o.depth ? 1u : 0u;
+                        break;
+                    }
                     ++c.found;
-                    const glm::vec3 p = glm::vec3(img.hitPoint[i]);
+                    if (o.shadows) {
+                        // The shadow ray of meso.frag on the CPU, from this fragment's frame, and
+                        // the shell's exit that cuts it with silhouettes.
+                        const glm::vec3 hp(img.hitPoint[i]);
+                        glm::vec2 f;
+                        const glm::ivec2 cc = dispmap::kern::dmHeightCell(glm::vec2(hp.x, hp.y), f);
+                        const glm::vec3 so = dispmap::kern::dmMesoShadowOrigin(hp, shadowMaps().field.cell(cc.x, cc.y), f,
+                                                                               static_cast<float>(o.shadowOffset));
+                        const glm::vec3 sd = dispmap::kern::dmTangentToVoxel(
+                            dispmap::kern::dmFrameCoordinates(glm::vec3(glm::normalize(o.lightDirection)), pS, pT, n), vpu);
+                        bool shadowed = true;
+                        if (sd.z > 0) {
+                            dispmap::DdmMarch opt;
+                            opt.maxIterations = o.shadowIterations;
+                            const dispmap::MesoHit sh =
+                                dispmap::marchDdm<float>(dispmap::CompressedDdmView{&shadowMaps().ddm}, shadowMaps().ddm.cones,
+                                                         shadowMaps().field.layers, &shadowMaps().quadrics, glm::dvec3(so), glm::dvec3(sd), opt);
+                            shadowed = sh.hit;
+                            if (sh.hit && silhouettes) {
+                                const glm::vec3 centre = bent ? glm::vec3(so.x, so.y, float(L)) : ov;
+                                const float exitT = dispmap::kern::dmShellExit(so, sd, centre, shape, vpu, float(L));
+                                if (exitT >= 0 && float(sh.t) > exitT) {
+                                    shadowed = false;
+                                    ++c.shadowCut;
+                                }
+                            }
+                        }
+                        c.shadowSame += shadowed == (img.shadowed[i] != 0) ? 1u : 0u;
+                    }
+                    // The world point is the straight ray's at the hit's t (with bent rays the
+                    // slab point, hitPoint.xyz, is where the detail was read, not where it is).
+                    const glm::vec3 p = img.rayOrigin[i] + img.rayDir[i] * img.hitPoint[i].w;
                     const glm::dvec3 world(dispmap::kern::dmFramePoint(glm::vec3(wp), p, ov, pS, pT, n, vpu));
                     const double above = tubeDistance(world) - kRt;
                     c.worst = std::max(c.worst, above);
@@ -895,29 +956,70 @@ TEST_CASE("silhouettes: no detail drawn outside the curved shell, no holes insid
                     break;
                 }
             }
-        INFO((silhouettes ? "silhouettes: " : "planar: ") << c.hits << " hits, " << c.found << " fragments found, " << c.outside
+        INFO((bent ? "bent: " : silhouettes ? "silhouettes: " : "planar: ") << c.hits << " hits, " << c.found << " fragments found, " << c.outside
                                                           << " outside the shell (worst " << c.worst / o.depth << " delta above), " << c.cut
-                                                          << " cut, " << c.holes << " holes of " << c.coreRays << " rays to the floor");
+                                                          << " cut, " << c.holes << " holes of " << c.coreRays << " rays to the floor, "
+                                                          << c.bentSame << " of " << c.bentRays << " rays as the CPU's bent march (" << c.bent << " bent), "
+                                                          << c.overCut << " of " << c.cutFound << " cut pixels with their hit inside the shell, "
+                                                          << c.shadowSame << " shadow rays as the CPU's (" << c.shadowCut << " cut)");
         CHECK(c.found >= c.hits - c.hits / 100); // a pixel whose ray grazes a triangle edge may miss both on the CPU
+        CHECK(c.cutFound >= c.cut - c.cut / 10);
+        CHECK(c.overCut == 0);
+        // The CPU's frame is the exact barycentric one, the GPU's the rasteriser's float
+        // interpolation: a shadow ray at a grazing edge may go the other way.
+        CHECK(c.shadowSame >= c.found - c.found / 50);
         CHECK(c.coreRays > 1000);
         return c;
     };
-    const Count planar = measure(false), cut = measure(true);
+    const Count planar = measure(false, false), cut = measure(true, false), bent = measure(false, true), bentCut = measure(true, true);
     INFO("planar: " << planar.outside << " outside (worst " << planar.worst / o.depth << " delta), " << planar.holes << " holes; silhouettes: "
-                    << cut.outside << " outside (worst " << cut.worst / o.depth << " delta), " << cut.cut << " cut, " << cut.holes << " holes");
+                    << cut.outside << " outside (worst " << cut.worst / o.depth << " delta), " << cut.cut << " cut, " << cut.holes
+                    << " holes; bent: " << bent.outside << " outside (worst " << bent.worst / o.depth << " delta), " << bent.holes << " holes, "
+                    << bent.bentSame << " of " << bent.bentRays << " as the CPU");
     // The planar march draws detail outside the shell at the outline; with silhouettes none.
     CHECK(planar.outside > 20); // 48 at 96 x 72 on lavapipe, up to 5.7 delta above the top
     CHECK(planar.cut == 0);
     CHECK(cut.cut > 20);
     CHECK(cut.outside == 0);
+    CHECK(cut.shadowCut > 20); // shadow rays that leave the shell before they meet the detail
     // And no holes: every ray that reaches the floor's torus hits, with or without.
     CHECK(planar.holes == 0);
     CHECK(cut.holes == 0);
+    // Bent rays leave the shell by themselves: nothing outside it, no holes, and every pixel's
+    // ray marched as the CPU marches it (bit for bit on lavapipe: hit, t, slab point, count).
+    CHECK(bent.outside == 0);
+    CHECK(bent.holes == 0);
+    // With silhouettes too, the shadow rays from the bent hits are cut where they leave the shell
+    // (the quadric centred at the hit's column); the view rays are the same.
+    CHECK(bentCut.shadowCut > 20);
+    CHECK(bentCut.hits == bent.hits);
+    CHECK(bentCut.outside == 0);
+    CHECK(bent.bent > bent.bentRays / 2);
+    if (dispmap::parity::strictFor(ctx, dispmap::parity::Options{})) CHECK(bent.bentSame == bent.bentRays);
+    CHECK(bent.bentSame >= bent.bentRays - bent.bentRays / 50);
     // Without a base, or with one that carries no curvature, silhouettes are refused.
     MesoRenderOptions bad = smallScene(MesoMethod::Ddm);
     bad.silhouettes = true;
     CHECK_THROWS_WITH(dispmap::vulkan::MesoRenderer(ctx, shadowMaps(), bad), Catch::Contains("silhouettes need a curved base mesh"));
     bad.base = spotBase();
     CHECK_THROWS_WITH(dispmap::vulkan::MesoRenderer(ctx, shadowMaps(), bad), Catch::Contains("FrameMeshOptions::shape"));
+    auto wrongSign = std::make_shared<dispmap::FrameMesh>(*base);
+    wrongSign->corners[4].shape.w = 0.5;
+    bad.base = wrongSign;
+    CHECK_THROWS_WITH(dispmap::vulkan::MesoRenderer(ctx, shadowMaps(), bad), Catch::Contains("corner 4: its most convex principal curvature"));
+    bad.base = spotBase();
+    bad.silhouettes = false;
+    bad.bentRays = true;
+    CHECK_THROWS_WITH(dispmap::vulkan::MesoRenderer(ctx, shadowMaps(), bad), Catch::Contains("bent rays need the base mesh's curvature"));
+    // Bent rays: the DDM over a height field, with shadow cones (a ray bent back up marches up).
+    bad = o;
+    bad.bentRays = true;
+    bad.technique.method = MesoMethod::Relief;
+    CHECK_THROWS_WITH(dispmap::vulkan::MesoRenderer(ctx, shadowMaps(), bad), Catch::Contains("bent rays are marched by the DDM"));
+    bad.technique = o.technique;
+    dispmap::MesoMapOptions viewOnly;
+    viewOnly.cones = dispmap::ConeSet{4, 1, false, false};
+    const MesoMaps noShadow = dispmap::buildMesoMaps(dispmap::parity::mesoParityField(16, 16, 16), viewOnly);
+    CHECK_THROWS_WITH(dispmap::vulkan::MesoRenderer(ctx, noShadow, bad), Catch::Contains("needs shadow cones"));
     dmgpu::checkNoValidationMessages();
 }

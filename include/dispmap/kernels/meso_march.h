@@ -63,9 +63,12 @@ DM_TFUNC bool dmMesoMarchDistance(DmMesoMaps m, rvec3 o, rvec3 d, int iterations
 // with the cones coneM x coneN (dmConeIndex). quadrics: intersect the quadric in a voxel whose
 // distance is 0 (else stop there). A ray that runs out of iterations counts as a hit at its
 // last point (short of the surface: conservative), so a shadow ray never leaks light and a
-// view ray never shows the sky through the surface. exitRule and tol: dmDdmStep.
+// view ray never shows the sky through the surface. exitRule and tol: dmDdmStep. tMax: the
+// march stops, as a miss with t > tMax, once it has passed tMax (a chord of a bent ray:
+// dmMesoMarchDdmBent; a hit found beyond it is returned as it is, t > tMax). A straight march
+// passes 3.0e38, no limit.
 DM_TFUNC bool dmMesoMarchDdm(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int coneN, int maxIterations, bool quadrics,
-                             int exitRule, real tol, DM_OUT(real) tHit, DM_OUT(int) count) {
+                             int exitRule, real tol, real tMax, DM_OUT(real) tHit, DM_OUT(int) count) {
     int cone = dmConeIndex(d, coneM, coneN);
     bool hit = true; // until the ray leaves: running out of iterations is a hit (see above)
     count = 0;
@@ -75,6 +78,10 @@ DM_TFUNC bool dmMesoMarchDdm(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int cone
         bool below;
         if (dmDdmLeftSlab(v, m.layers, o, d, t, below)) {
             hit = below;
+            break;
+        }
+        if (t > tMax) {
+            hit = false;
             break;
         }
         count = count + 1;
@@ -94,6 +101,71 @@ DM_TFUNC bool dmMesoMarchDdm(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int cone
     }
     tHit = t;
     return hit;
+}
+
+// The DDM march along a ray bent by the base's curvature (Donnelly's locally planar model with
+// the quadric of the shell's top, kern::dmShellBend): in the slab's own coordinates, where the
+// top lies at z = L everywhere, the straight world ray from the entry o (o.z = L, d going down,
+// unit) is the parabola P(t) = o + t d - bend t^2 z. It ends on the floor (z = 0) or, bent up
+// (bend < 0, convex), back at the top, where it has left the shell: a miss, the silhouette of
+// the detail itself. It is marched as chords of equal parameter length, each a straight
+// dmMesoMarchDdm that stops past the chord's end, as few as keep every chord within
+// `chordError` voxels of the parabola (|bend| len^2 / 4 for a chord of parameter length len), at
+// most 64; the last chord goes on straight. A hit on a chord is the hit; a chord that leaves
+// through the top misses. Writes the hit's parameter on the straight ray (tHit: the world point
+// is the straight ray's there) and its point in the slab's coordinates (pHit: where the detail
+// is read), and the iterations of all chords together (at most maxIterations; running out is a
+// hit, as dmMesoMarchDdm). bend == 0 is dmMesoMarchDdm itself.
+DM_TFUNC bool dmMesoMarchDdmBent(DmMesoMaps m, rvec3 o, rvec3 d, real bend, int coneM, int coneN, int maxIterations, bool quadrics,
+                                 int exitRule, real tol, real chordError, DM_OUT(real) tHit, DM_OUT(rvec3) pHit, DM_OUT(int) count) {
+    real L = real(m.layers);
+    // Where the parabola ends: the floor, z(t) = L + d.z t - bend t^2 = 0 (the smaller root, if
+    // it gets there), or the top again at t = d.z / bend when bent up.
+    real tEnd = real(0);
+    real disc = d.z * d.z + real(4) * bend * L;
+    if (disc >= real(0)) {
+        tEnd = (real(2) * L) / (sqrt(disc) - d.z);
+    }
+    if (bend < real(0)) {
+        real tTop = d.z / bend;
+        tEnd = disc >= real(0) ? min(tEnd, tTop) : tTop;
+    }
+    if (bend == real(0)) {
+        bool straight = dmMesoMarchDdm(m, o, d, coneM, coneN, maxIterations, quadrics, exitRule, tol, real(3.0e38), tHit, count);
+        pHit = o + d * tHit;
+        return straight;
+    }
+    int chords = max(int(min(ceil(real(0.5) * tEnd * sqrt(abs(bend) / chordError)), real(64))), 1);
+    count = 0;
+    tHit = real(0);
+    pHit = o;
+    for (int k = 0; k < chords; ++k) {
+        real ta = tEnd * (real(k) / real(chords));
+        real tb = tEnd * (real(k + 1) / real(chords));
+        rvec3 pa = o + d * ta - rvec3(real(0), real(0), bend * (ta * ta));
+        rvec3 pb = o + d * tb - rvec3(real(0), real(0), bend * (tb * tb));
+        rvec3 u = pb - pa;
+        real len = sqrt(dmDot3(u, u));
+        u = u * (real(1) / len);
+        bool last = k == chords - 1;
+        real tMax = last ? real(3.0e38) : len;
+        real tc;
+        int used;
+        bool hit = dmMesoMarchDdm(m, pa, u, coneM, coneN, maxIterations - count, quadrics, exitRule, tol, tMax, tc, used);
+        count = count + used;
+        tHit = ta + (tb - ta) * (tc / len);
+        pHit = pa + u * tc;
+        if (hit && tc <= tMax) {
+            return true;
+        }
+        if (!hit && tc <= tMax) {
+            return false; // out through the top within the chord
+        }
+        if (count >= maxIterations) {
+            return true; // out of iterations: a hit where it stopped (conservative)
+        }
+    }
+    return true;
 }
 
 // Algorithm 3.1 over a solid (non-height-field detail, meso/solid.h): the march of

@@ -47,6 +47,7 @@ namespace dispmap::kern {
 // GLSL names resolve to GLM inside the kernel namespace, so <cmath> never wins overload
 // resolution for a kernel.
 using glm::abs;
+using glm::ceil;
 using glm::clamp;
 using glm::cross;
 using glm::dot;

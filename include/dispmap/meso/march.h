@@ -177,21 +177,63 @@ struct DdmMarch {
 /// at its last point (short of the surface: conservative), so a shadow ray never leaks light
 /// and a view ray never shows the sky through the surface. ArgumentError for an upward ray on
 /// a map without shadow cones.
+namespace detail {
+// The kernels' view of a DDM (dense or compressed), its layers and quadrics, after the checks
+// both DDM marchers make (`who` names the caller).
 template <class real, class Map>
-MesoHit marchDdm(const Map& map, const ConeSet& cones, int layers, const ColumnQuadrics* quadrics, const glm::dvec3& o0,
-                 const glm::dvec3& d0, const DdmMarch& opt) {
-    detail::checkRay(o0, d0, "marchDdm");
-    if (d0.z > 0 && !cones.isotropic && !cones.shadow) throw ArgumentError("marchDdm: an upward (shadow) ray needs shadow cones");
-    if (opt.quadrics && !quadrics) throw ArgumentError("marchDdm: quadric intersection needs the column quadrics");
+kern::DmMesoMapsT<real> ddmMaps(const Map& map, int layers, const ColumnQuadrics* quadrics, const glm::dvec3& o0, const glm::dvec3& d0,
+                                const DdmMarch& opt, const char* who) {
+    checkRay(o0, d0, who);
+    if (opt.quadrics && !quadrics) throw ArgumentError(std::string(who) + ": quadric intersection needs the column quadrics");
     kern::DmMesoMapsT<real> maps;
     maps.layers = layers;
     maps.quadrics = quadrics;
     map.bind(maps);
+    return maps;
+}
+} // namespace detail
+
+template <class real, class Map>
+MesoHit marchDdm(const Map& map, const ConeSet& cones, int layers, const ColumnQuadrics* quadrics, const glm::dvec3& o0,
+                 const glm::dvec3& d0, const DdmMarch& opt) {
+    if (d0.z > 0 && !cones.isotropic && !cones.shadow) throw ArgumentError("marchDdm: an upward (shadow) ray needs shadow cones");
+    const kern::DmMesoMapsT<real> maps = detail::ddmMaps<real>(map, layers, quadrics, o0, d0, opt, "marchDdm");
     MesoHit r;
     real t = 0;
     r.hit = kern::dmMesoMarchDdm(maps, detail::v3<real>(o0), detail::v3<real>(d0), cones.kernelM(), cones.n, opt.maxIterations,
-                                 opt.quadrics, opt.exitRule, mesoRootTolerance<real>(), t, r.iterations);
+                                 opt.quadrics, opt.exitRule, mesoRootTolerance<real>(), real(3.0e38), t, r.iterations);
     r.t = static_cast<double>(t);
+    return r;
+}
+
+/// How far (voxels) each chord of a bent ray may lie from its parabola (kern::dmMesoMarchDdmBent).
+inline constexpr double kMesoChordError = 0.05;
+/// The most convex curvature times the slab's depth that the renderer's silhouettes and bent
+/// rays take from a base (kern::dmShellLimit): where the base is tighter, half the depth is the
+/// radius they see (so that a thick slab on a thin part does not show holes).
+inline constexpr double kShellCurvatureLimit = 0.5;
+
+/// marchDdm along the ray bent by a curved base (kern::dmMesoMarchDdmBent; `bend` from
+/// kern::dmShellBend at the entry o0, a view ray from the top: o0.z = layers, d0 going down).
+/// The hit's t is the straight ray's; `slabPoint` (if given) gets the hit in the slab's
+/// coordinates, where the detail is read. ArgumentError as marchDdm, and for an entry off the
+/// top, an upward ray or a bend that is not finite.
+template <class real, class Map>
+MesoHit marchDdmBent(const Map& map, const ConeSet& cones, int layers, const ColumnQuadrics* quadrics, const glm::dvec3& o0,
+                     const glm::dvec3& d0, double bend, const DdmMarch& opt, glm::dvec3* slabPoint = nullptr) {
+    if (!cones.isotropic && !cones.shadow)
+        throw ArgumentError("marchDdmBent: a ray bent back up marches upward chords: the map needs shadow cones (or to be isotropic)");
+    const kern::DmMesoMapsT<real> maps = detail::ddmMaps<real>(map, layers, quadrics, o0, d0, opt, "marchDdmBent");
+    if (!(o0.z == layers) || !(d0.z < 0) || !std::isfinite(bend))
+        throw ArgumentError("marchDdmBent: the ray must enter at the top (z = layers) going down, with a finite bend");
+    MesoHit r;
+    real t = 0;
+    glm::vec<3, real> p;
+    r.hit = kern::dmMesoMarchDdmBent(maps, detail::v3<real>(o0), detail::v3<real>(d0), static_cast<real>(bend), cones.kernelM(), cones.n,
+                                     opt.maxIterations, opt.quadrics, opt.exitRule, mesoRootTolerance<real>(), real(kMesoChordError), t, p,
+                                     r.iterations);
+    r.t = static_cast<double>(t);
+    if (slabPoint) *slabPoint = glm::dvec3(p);
     return r;
 }
 
@@ -423,6 +465,21 @@ inline MesoMapOptions mesoMapOptionsFor(const MesoTechnique& technique, bool sha
     o.ddm = technique.method == MesoMethod::Ddm || shadows;
     o.quadrics = (technique.method == MesoMethod::Ddm && technique.quadrics) || shadows;
     return o;
+}
+
+/// One view ray through `maps` by `technique` along the ray bent by a curved base (`bend`:
+/// kern::dmShellBend at the entry; marchDdmBent): the DDM on a height field only
+/// (ArgumentError for another technique or a solid). `slabPoint`: as marchDdmBent.
+template <class real>
+MesoHit marchMesoBent(const MesoMaps& maps, const MesoTechnique& tq, const glm::dvec3& o, const glm::dvec3& d, double bend,
+                      glm::dvec3* slabPoint = nullptr) {
+    if (tq.method != MesoMethod::Ddm || maps.isSolid())
+        throw ArgumentError("marchMesoBent: bent rays are marched by the DDM over a height field only");
+    DdmMarch opt;
+    opt.maxIterations = tq.iterations;
+    opt.quadrics = tq.quadrics;
+    opt.exitRule = tq.exitRule;
+    return marchDdmBent<real>(CompressedDdmView{&maps.ddm}, maps.ddm.cones, maps.field.layers, &maps.quadrics, o, d, bend, opt, slabPoint);
 }
 
 /// One ray through `maps` by `technique`, in `real`.

@@ -11,7 +11,7 @@
 //    "light": [0.4, 0.3, 0.8], "resolution": [320, 240], "tile": 0.5, "slab": 0.06, "checker": 8,
 //    "effects": {"technique": "ddm", "quadrics": true, "iterations": 128, "exitRule": 1,
 //                "eps": -1, "linear": 32, "binary": 6, "shadows": false, "mips": true,
-//                "silhouettes": false},
+//                "silhouettes": false, "bentRays": false},
 //    "base": {"mesh": "spot.obj", "isolation": 6, "displacement": {...},
 //             "placement": "uv", "repeat": [8, 8], "uv": "mesh", "tessellation": 8}}
 //
@@ -95,6 +95,9 @@ struct MesoSceneDesc {
     /// "effects.silhouettes": the detail's own silhouettes on the base (needs "base"; the
     /// base's frames then carry its curvature, FrameMeshOptions::shape).
     bool silhouettes = false;
+    /// "effects.bentRays": the view ray bent by the base's curvature (the DDM on a height field,
+    /// on a "base" only; MesoRenderOptions::bentRays).
+    bool bentRays = false;
     /// The base surface ("base"): a surface scene's mesh, isolation and displacement (no
     /// camera, lights or effects of its own); none: the plane.
     std::optional<Scene> base;
@@ -315,7 +318,7 @@ inline glm::dvec3 mesoVec3(const nlohmann::json& j, const char* key, glm::dvec3 
     return r;
 }
 inline MesoMapOptions mesoSceneMapOptions(const MesoSceneDesc& s) {
-    MesoMapOptions o = mesoMapOptionsFor(s.technique, s.shadows, s.cones);
+    MesoMapOptions o = mesoMapOptionsFor(s.technique, s.shadows || s.bentRays, s.cones); // bent rays rise again: upward cones
     o.block = s.block;
     return o;
 }
@@ -404,6 +407,7 @@ inline void parseMesoPart(const nlohmann::json& m, const std::string& baseDir, M
             if (m.contains(key)) throw fail("'" + where + "." + key + "' applies to a height field, not to a 'mesh'");
         if (s.technique.method != MesoMethod::Ddm)
             throw fail("'" + where + ".mesh' (non-height-field detail) is marched by the DDM: 'effects.technique' must be \"ddm\"");
+        if (s.bentRays) throw fail("'" + where + ".mesh' (non-height-field detail) is marched along straight rays: no 'effects.bentRays'");
         s.mesh = path("mesh");
     }
     if (m.contains("meshTile")) {
@@ -518,7 +522,7 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
     if (j.contains("effects")) {
         const nlohmann::json& e = j["effects"];
         mesoKeys(e, name, "effects", {"technique", "quadrics", "iterations", "exitRule", "eps", "linear", "binary", "shadows", "mips",
-                                            "silhouettes"});
+                                            "silhouettes", "bentRays"});
         MesoTechnique& t = s.technique;
         if (e.contains("technique")) {
             const std::string k = e["technique"].is_string() ? e["technique"].get<std::string>() : "";
@@ -536,6 +540,7 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
         t.quadrics = flag("quadrics", t.quadrics);
         s.shadows = flag("shadows", s.shadows);
         s.silhouettes = flag("silhouettes", s.silhouettes);
+        s.bentRays = flag("bentRays", s.bentRays);
         s.albedoMips = flag("mips", s.albedoMips);
         t.iterations = mesoNumber(e, "iterations", t.iterations, name, "effects.");
         t.exitRule = mesoNumber(e, "exitRule", t.exitRule, name, "effects.");
@@ -555,7 +560,9 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
         throw fail("'camera.fov' " + std::to_string(s.fov) + " is not in [" + detail::drawNumber(kMinFovDeg) + ", 180) degrees");
     if (j.contains("base")) parseMesoBase(j["base"], name, baseDir, s);
     if (s.silhouettes && !s.base) throw fail("'effects.silhouettes' needs a 'base' (the plane z = 0 has no silhouettes of its own)");
-    s.placement.shape = s.silhouettes;
+    if (s.bentRays && !s.base) throw fail("'effects.bentRays' needs a 'base' (the plane z = 0 is not curved)");
+    if (s.bentRays && s.technique.method != MesoMethod::Ddm) throw fail("'effects.bentRays' needs the technique \"ddm\"");
+    s.placement.shape = s.silhouettes || s.bentRays;
     if (!s.base && !(s.eye.z > 0)) throw fail("'camera.eye' must be above the plane z = 0 (eye.z > 0)");
     if (!(glm::length(s.target - s.eye) > 0)) throw fail("'camera.eye' and 'camera.target' are the same point");
     if (!(glm::length(glm::cross(s.target - s.eye, s.up)) > 1e-9 * glm::length(s.target - s.eye) * glm::length(s.up)))

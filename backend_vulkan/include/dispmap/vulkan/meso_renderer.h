@@ -82,6 +82,13 @@ struct MesoRenderOptions : MesoLook {
     /// second fundamental form, kern::dmShellExit) is a miss, and so is a shadow ray's. Needs
     /// a base built with FrameMeshOptions::shape. Off: the locally planar slab everywhere.
     bool silhouettes = false;
+    /// The view ray bent by the base's curvature (kern::dmMesoMarchDdmBent): in the slab's own
+    /// coordinates the straight world ray is a parabola, marched as chords, so the detail lies
+    /// at its depth below the curved top rather than below the entry's tangent plane, and a
+    /// ray bent back up leaves the shell by itself (silhouettes without the cut). The DDM on a
+    /// height field only; needs a base built with FrameMeshOptions::shape. Shadow rays stay
+    /// straight (cut with `silhouettes`).
+    bool bentRays = false;
     double ambient = 0.2;
     glm::dvec3 background{0.12, 0.13, 0.16};
     int frames = 3;            ///< timed frames (the GPU time is their median)
@@ -109,6 +116,7 @@ struct MesoImage {
     std::vector<glm::vec4> hitPoint;         ///< voxel-space hit point and t
     std::vector<glm::vec3> rayOrigin, rayDir; ///< the pixel's view ray in voxel space (where covered)
     std::vector<std::uint8_t> part;          ///< which MesoPart drew the pixel (where covered; 0 with one mesostructure)
+    std::vector<float> bend;                 ///< the view ray's bend (kern::dmShellBend) with bentRays, else 0
     double gpuMs = 0;                        ///< median GPU time of the timed frames (timestamps)
     int frames = 0;
 };
