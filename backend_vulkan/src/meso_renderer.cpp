@@ -460,7 +460,7 @@ MesoImage MesoRenderer::render() {
         out.cut[i] = counts[i].w == 2u ? 1 : 0;
         out.rayOrigin[i] = glm::vec3(origin[i]);
         out.rayDir[i] = glm::vec3(dir[i]);
-        out.part[i] = static_cast<std::uint8_t>(counts[i].z >> 1);
+        out.part[i] = static_cast<std::uint8_t>(std::min(counts[i].z >> 1, 255u));
         out.bend[i] = dir[i].w;
     }
     return out;

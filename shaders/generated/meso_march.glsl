@@ -86,7 +86,8 @@ DM_TFUNC bool dmMesoMarchDdm(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int cone
 // the detail itself. It is marched as chords of equal parameter length, each a straight
 // dmMesoMarchDdm that stops past the chord's end, as few as keep every chord within
 // `chordError` voxels of the parabola (|bend| len^2 / 4 for a chord of parameter length len), at
-// most 64; the last chord goes on straight. A hit on a chord is the hit; a chord that leaves
+// most 64; the last chord goes on straight when the parabola ends on the floor, and ends at the
+// top when it comes back there (a miss). A hit on a chord is the hit; a chord that leaves
 // through the top misses. Writes the hit's parameter on the straight ray (tHit: the world point
 // is the straight ray's there) and its point in the slab's coordinates (pHit: where the detail
 // is read), and the iterations of all chords together (at most maxIterations; running out is a
@@ -101,9 +102,11 @@ DM_TFUNC bool dmMesoMarchDdmBent(DmMesoMaps m, rvec3 o, rvec3 d, real bend, int 
     if (disc >= real(0)) {
         tEnd = (real(2) * L) / (sqrt(disc) - d.z);
     }
+    bool endsAtTop = false; // bent back up to the top before the floor: out of the shell
     if (bend < real(0)) {
         real tTop = d.z / bend;
-        tEnd = disc >= real(0) ? min(tEnd, tTop) : tTop;
+        endsAtTop = !(disc >= real(0)) || tTop < tEnd;
+        tEnd = endsAtTop ? tTop : tEnd;
     }
     if (bend == real(0)) {
         bool straight = dmMesoMarchDdm(m, o, d, coneM, coneN, maxIterations, quadrics, exitRule, tol, real(3.0e38), tHit, count);
@@ -121,9 +124,18 @@ DM_TFUNC bool dmMesoMarchDdmBent(DmMesoMaps m, rvec3 o, rvec3 d, real bend, int 
         rvec3 pb = o + d * tb - rvec3(real(0), real(0), bend * (tb * tb));
         rvec3 u = pb - pa;
         real len = sqrt(dmDot3(u, u));
+        if (!(len > real(0))) {
+            // A chord shorter than float resolves (a ray grazing a convex top): it leaves there.
+            tHit = ta;
+            pHit = pa;
+            return false;
+        }
         u = u * (real(1) / len);
         bool last = k == chords - 1;
-        real tMax = last ? real(3.0e38) : len;
+        // The last chord of a ray that reaches the floor goes on straight; one that comes back
+        // to the top ends there too (rounding may leave its end a float step inside, and a
+        // march along the top layer must not run on).
+        real tMax = last && !endsAtTop ? real(3.0e38) : len;
         real tc;
         int used;
         bool hit = dmMesoMarchDdm(m, pa, u, coneM, coneN, maxIterations - count, quadrics, exitRule, tol, tMax, tc, used);
@@ -140,7 +152,10 @@ DM_TFUNC bool dmMesoMarchDdmBent(DmMesoMaps m, rvec3 o, rvec3 d, real bend, int 
             return true; // out of iterations: a hit where it stopped (conservative)
         }
     }
-    return true;
+    // Only a ray bent back to the top gets here: it has left the shell.
+    tHit = tEnd;
+    pHit = o + d * tEnd - rvec3(real(0), real(0), bend * (tEnd * tEnd));
+    return false;
 }
 
 // Algorithm 3.1 over a solid (non-height-field detail, meso/solid.h): the march of

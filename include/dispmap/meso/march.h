@@ -171,12 +171,6 @@ struct DdmMarch {
     int exitRule = 1;     ///< 1: step exit(v) + d; 0: the paper's t + d
 };
 
-/// Algorithm 3.1 (sphere tracing a conservative DDM, quadric intersection 3.2, voxel walls
-/// 3.3; the loop is kern::dmMesoMarchDdm) over DenseDdmView or CompressedDdmView; quadrics may be
-/// null only when options.quadrics is false. A ray that runs out of iterations counts as a hit
-/// at its last point (short of the surface: conservative), so a shadow ray never leaks light
-/// and a view ray never shows the sky through the surface. ArgumentError for an upward ray on
-/// a map without shadow cones.
 namespace detail {
 // The kernels' view of a DDM (dense or compressed), its layers and quadrics, after the checks
 // both DDM marchers make (`who` names the caller).
@@ -193,6 +187,12 @@ kern::DmMesoMapsT<real> ddmMaps(const Map& map, int layers, const ColumnQuadrics
 }
 } // namespace detail
 
+/// Algorithm 3.1 (sphere tracing a conservative DDM, quadric intersection 3.2, voxel walls
+/// 3.3; the loop is kern::dmMesoMarchDdm) over DenseDdmView or CompressedDdmView; quadrics may be
+/// null only when options.quadrics is false. A ray that runs out of iterations counts as a hit
+/// at its last point (short of the surface: conservative), so a shadow ray never leaks light
+/// and a view ray never shows the sky through the surface. ArgumentError for an upward ray on
+/// a map without shadow cones.
 template <class real, class Map>
 MesoHit marchDdm(const Map& map, const ConeSet& cones, int layers, const ColumnQuadrics* quadrics, const glm::dvec3& o0,
                  const glm::dvec3& d0, const DdmMarch& opt) {

@@ -113,7 +113,7 @@ struct MesoImage {
     std::vector<std::uint8_t> hit;           ///< 1 where the view ray hit (0: missed, or background)
     std::vector<std::uint8_t> cut;           ///< 1 where the march hit past the shell's exit (silhouettes): drawn as a miss
     std::vector<std::uint8_t> shadowed;      ///< 1 where the shadow ray hit the mesostructure (or the base turns away from the light)
-    std::vector<glm::vec4> hitPoint;         ///< voxel-space hit point and t
+    std::vector<glm::vec4> hitPoint;         ///< voxel-space hit point and t (bent rays: the point in the slab's coordinates where the detail was read; the world point is rayOrigin + rayDir t)
     std::vector<glm::vec3> rayOrigin, rayDir; ///< the pixel's view ray in voxel space (where covered)
     std::vector<std::uint8_t> part;          ///< which MesoPart drew the pixel (where covered; 0 with one mesostructure)
     std::vector<float> bend;                 ///< the view ray's bend (kern::dmShellBend) with bentRays, else 0
