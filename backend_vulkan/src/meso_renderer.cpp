@@ -72,7 +72,7 @@ void validateScene(const Context& ctx, const MesoRenderOptions& o) {
         for (std::size_t i = 0; i < n; ++i) {
             const FrameVertex& v = o.base->corners[i];
             const double sum =
-                glm::dot(glm::dvec3(1.0), glm::abs(v.position) + glm::abs(v.pS) + glm::abs(v.pT) + glm::abs(v.normal) + glm::abs(glm::dvec3(v.shape)) + std::abs(v.shape.w));
+                glm::dot(glm::dvec3(1.0), glm::abs(v.position) + glm::abs(v.pS) + glm::abs(v.pT) + glm::abs(v.normal)) + glm::dot(glm::dvec4(1.0), glm::abs(v.shape));
             if (!(sum <= kMaxDrawValue))
                 throw ArgumentError("meso renderer: base mesh corner " + std::to_string(i) + " has a value that is not finite or beyond +-" +
                                     dispmap::detail::drawNumber(kMaxDrawValue) + " (the GPU holds it as a float)");

@@ -112,18 +112,29 @@ DM_TFUNC rvec4 dmShellLimit(rvec4 shape, rvec3 voxelsPerUnit, real L, real limit
     return k > limit ? shape * (limit / k) : shape;
 }
 
+// A base's shape (FrameVertex::shape) in voxels: (K_xx, K_xy, K_yy, m) of dmShellExit's quadric,
+// K_xx = shape.x vpu.z / vpu.x^2, K_xy = shape.y vpu.z / (vpu.x vpu.y), K_yy = shape.z vpu.z /
+// vpu.y^2, m = shape.w / vpu.z.
+DM_TFUNC rvec4 dmShellVoxels(rvec4 shape, rvec3 voxelsPerUnit) {
+    return rvec4(shape.x * (voxelsPerUnit.z / (voxelsPerUnit.x * voxelsPerUnit.x)),
+                 shape.y * (voxelsPerUnit.z / (voxelsPerUnit.x * voxelsPerUnit.y)),
+                 shape.z * (voxelsPerUnit.z / (voxelsPerUnit.y * voxelsPerUnit.y)), shape.w / voxelsPerUnit.z);
+}
+
+// The coefficient of t^2 in the quadric k (dmShellVoxels) along direction d:
+// (1/2) (d_h^T K d_h + m d.z^2).
+DM_TFUNC real dmShellAlong(rvec3 d, rvec4 k) {
+    rvec2 kd = rvec2(k.x * d.x + k.y * d.y, k.y * d.x + k.z * d.y);
+    return real(0.5) * ((d.x * kd.x + d.y * kd.y) + k.w * (d.z * d.z));
+}
+
 // The bend of the ray p + t d in the shell's own coordinates (dmShellExit's quadric, below): the
-// coefficient a of t^2 in F along the ray, (1/2) (d_h^T K d_h + m d.z^2), voxels^-1. In the
-// slab's coordinates, where the top lies at z = L everywhere, the straight world ray from the
-// entry o is the parabola o + t d - a t^2 z (dmMesoMarchDdmBent): a < 0 along a convex
-// direction (the ray rises back to the top and leaves), a > 0 along a concave one.
+// coefficient a of t^2 in F along the ray, voxels^-1. In the slab's coordinates, where the top
+// lies at z = L everywhere, the straight world ray from the entry o is the parabola
+// o + t d - a t^2 z (dmMesoMarchDdmBent): a < 0 along a convex direction (the ray rises back to
+// the top and leaves), a > 0 along a concave one.
 DM_TFUNC real dmShellBend(rvec3 d, rvec4 shape, rvec3 voxelsPerUnit) {
-    real kxx = shape.x * (voxelsPerUnit.z / (voxelsPerUnit.x * voxelsPerUnit.x));
-    real kxy = shape.y * (voxelsPerUnit.z / (voxelsPerUnit.x * voxelsPerUnit.y));
-    real kyy = shape.z * (voxelsPerUnit.z / (voxelsPerUnit.y * voxelsPerUnit.y));
-    real m = shape.w / voxelsPerUnit.z;
-    rvec2 kd = rvec2(kxx * d.x + kxy * d.y, kxy * d.x + kyy * d.y);
-    return real(0.5) * ((d.x * kd.x + d.y * kd.y) + m * (d.z * d.z));
+    return dmShellAlong(d, dmShellVoxels(shape, voxelsPerUnit));
 }
 
 // Where the ray p + t d (voxel space, t >= 0) leaves a curved base's shell through its top: the
@@ -133,9 +144,8 @@ DM_TFUNC real dmShellBend(rvec3 d, rvec4 shape, rvec3 voxelsPerUnit) {
 // height over the entry's tangent plane (voxels), the top is where
 //     F = (1/2) e^T K e + (1/2) m z'^2 - z' = 0,   inside (below the top) where F > 0.
 // K is `shape`.xyz (n . P_ss, n . P_st, n . P_tt: world units per squared texture unit,
-// FrameVertex::shape) in voxels: K_xx = shape.x vpu.z / vpu.x^2, K_xy = shape.y vpu.z /
-// (vpu.x vpu.y), K_yy = shape.z vpu.z / vpu.y^2; m = shape.w / vpu.z, shape.w the most convex
-// principal curvature (<= 0, 1 / world units). Negative along a convex direction: there the top
+// FrameVertex::shape) and m is shape.w (the most convex principal curvature, <= 0, 1 / world
+// units), both in voxels (dmShellVoxels). Negative along a convex direction: there the top
 // falls away below the tangent plane. The z'^2 term makes the quadric the exact shell of a
 // sphere and of a cylinder (both principal radii, or the one curved direction, meet the
 // vertical); without it (m = 0) the shell is the osculating paraboloid. Along the ray
@@ -143,17 +153,14 @@ DM_TFUNC real dmShellBend(rvec3 d, rvec4 shape, rvec3 voxelsPerUnit) {
 // stable pair q / a and c / q; real(-1) where there is none (flat or concave along the ray,
 // or a top that curls over it). A start above the top counts as on it (c >= 0).
 DM_TFUNC real dmShellExit(rvec3 p, rvec3 d, rvec3 o, rvec4 shape, rvec3 voxelsPerUnit, real top) {
-    real kxx = shape.x * (voxelsPerUnit.z / (voxelsPerUnit.x * voxelsPerUnit.x));
-    real kxy = shape.y * (voxelsPerUnit.z / (voxelsPerUnit.x * voxelsPerUnit.y));
-    real kyy = shape.z * (voxelsPerUnit.z / (voxelsPerUnit.y * voxelsPerUnit.y));
-    real m = shape.w / voxelsPerUnit.z;
+    rvec4 k = dmShellVoxels(shape, voxelsPerUnit);
     real ex = p.x - o.x;
     real ey = p.y - o.y;
     real zh = min(p.z - top, real(0));
-    rvec2 ke = rvec2(kxx * ex + kxy * ey, kxy * ex + kyy * ey);
-    real c = max(real(0.5) * ((ex * ke.x + ey * ke.y) + m * (zh * zh)) - zh, real(0));
-    real b = ((d.x * ke.x + d.y * ke.y) + m * (zh * d.z)) - d.z;
-    real a = dmShellBend(d, shape, voxelsPerUnit);
+    rvec2 ke = rvec2(k.x * ex + k.y * ey, k.y * ex + k.z * ey);
+    real c = max(real(0.5) * ((ex * ke.x + ey * ke.y) + k.w * (zh * zh)) - zh, real(0));
+    real b = ((d.x * ke.x + d.y * ke.y) + k.w * (zh * d.z)) - d.z;
+    real a = dmShellAlong(d, k);
     real disc = b * b - real(4) * a * c;
     real best = real(-1);
     if (disc >= real(0)) {
