@@ -66,7 +66,15 @@ static_assert(sizeof(Push) == 76);
 constexpr std::int32_t kSolidMethod = 4; // parity_meso.comp's method of the solid's march
 constexpr std::int32_t kBentMethod = 5; // and of the DDM along a bent ray
 
-constexpr double kMesoFusedBound = 8; // parity.cpp's bound for other devices, in ULP of max(|t|, 1)
+// Other devices (not strict): their sqrt and division need not round correctly (Vulkan allows
+// a few ULP) and they may fuse, so a ray's decisions can go the other way where an intermediate
+// lands at a threshold, and a different decision moves the hit by up to a step of the method.
+// The bound is on the hit itself: within 1/16 voxel (Relief's final bracket is up to 1/43
+// voxel at these slopes) for all but 0.1 % of the rays, the hit/miss answer the same. Measured
+// on an NVIDIA H200 (docs/figures.md): no hit/miss flips, at most 1 ray of 16384 a row over
+// 1/16 voxel (a bent chord cut elsewhere, a solid's shadow ray that ran out of iterations).
+constexpr double kMesoDeviceVoxels = 1.0 / 16;
+constexpr double kMesoDeviceShare = 0.001;
 
 class RayGen {
   public:
@@ -329,13 +337,17 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
             res.kernel = row->name;
             res.precision = "float";
             res.contract = isSolid ? "march: div" : "march: sqrt, div";
-            res.unit = isSolid ? "t ULP max(|t|,1); hit,n,tri" : "t: ULP max(|t|,1); hit, n"; // bit-exact: these and the bits of t (a zero t by value)
-            res.bound = strict ? 0.0 : kMesoFusedBound;
+            // Strict: bit-exact decisions and t (a zero t by value). Else |t| in voxels, see kMesoDeviceVoxels.
+            res.unit = strict ? (isSolid ? "t ULP max(|t|,1); hit,n,tri" : "t: ULP max(|t|,1); hit, n") : "|t| voxels; 0.1% over";
+            res.bound = strict ? 0.0 : kMesoDeviceVoxels;
+            res.allowedOver = strict ? 0.0 : kMesoDeviceShare;
             res.inputs = rays.size();
             res.gpuSeconds = ctx.dispatch(pipe, bufs, glm::uvec3(groupsX, groupsY, 1), &push, sizeof push);
             std::vector<glm::uvec4> gpu(rays.size());
             outBuf.download(gpu.data(), gpu.size() * sizeof(glm::uvec4));
             double sum = 0;
+            std::size_t flips = 0;
+            std::vector<std::pair<double, std::size_t>> spread{{1e-4, 0}, {1.0 / 64, 0}, {1.0 / 16, 0}, {0.25, 0}};
             for (std::size_t i = 0; i < rays.size(); ++i) {
                 const glm::vec3 o(rays[i].o), d(rays[i].d);
                 MesoHit cpu;
@@ -360,7 +372,13 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
                 // a signed-zero rewrite NoContraction does not stop. The hit point is the same.
                 const bool same = sameDecision && (std::memcmp(&tc, &tg, sizeof tc) == 0 || (tc == 0.0f && tg == 0.0f));
                 double err = 0;
-                if (!sameDecision) {
+                if (!strict) {
+                    // The distance of the hits along the ray (voxel-space rays are unit vectors).
+                    err = (gpu[i].x != 0) != cpu.hit ? std::numeric_limits<double>::infinity() : std::abs(double(tc) - double(tg));
+                    if (!std::isfinite(err)) ++flips;
+                    for (std::size_t k = 0; k < spread.size(); ++k) spread[k].second += err > spread[k].first ? 1u : 0u;
+                    res.over += err > res.bound ? 1u : 0u;
+                } else if (!sameDecision) {
                     err = std::numeric_limits<double>::infinity(); // a different path: no ULP measure
                 } else if (!same) {
                     const float scale = std::max(std::abs(tc), 1.0f);
@@ -380,6 +398,14 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
                 }
             }
             res.meanUlp = sum / static_cast<double>(rays.size());
+            if (!strict) {
+                // How far the hits spread: shares of the rays over 1e-4 ... 1/4 voxel, and whose hit/miss differs.
+                std::ostringstream s;
+                s << std::setprecision(2);
+                for (const auto& [limit, over] : spread) s << "> " << limit << ": " << 100.0 * double(over) / double(rays.size()) << "%, ";
+                s << "hit/miss differs: " << 100.0 * double(flips) / double(rays.size()) << "%; worst " << res.worstInput;
+                res.worstInput = s.str();
+            }
             results.push_back(std::move(res));
         }
     }

@@ -49,7 +49,15 @@ struct KernelResult {
     std::string unit;        ///< what the scale is
     std::string worstInput;  ///< the input of maxUlp, printed in full
     double gpuSeconds = 0;   ///< summed timestamp time of the dispatches
-    bool ok() const { return maxUlp <= bound; }
+    /// The marchers on a device that does not round like the CPU (not strict): a ray's decisions
+    /// (hit, iteration count, the solid's triangle) may go the other way where an intermediate
+    /// lands within a few ULP of a threshold, so the bound is on the hit (|t| in voxels) and
+    /// holds for all but allowedOver of the inputs. Zero everywhere else: every input in bound.
+    std::size_t over = 0;   ///< inputs over the bound
+    double allowedOver = 0; ///< the share of the inputs that may be over it
+    bool ok() const {
+        return allowedOver > 0 ? static_cast<double>(over) <= allowedOver * static_cast<double>(inputs) : maxUlp <= bound;
+    }
 };
 
 /// Runs every kernel (float, and double where the device has shaderFloat64), the packed

@@ -10,12 +10,18 @@
 #include "dispmap/vulkan/buffer.h"
 #include "dispmap/vulkan/compute.h"
 #include "dispmap/vulkan/context.h"
+#include "parity.h"
 
 namespace dmgpu {
 
 /// The one Context of the test process: validation on, shaderFloat64 enabled where supported.
 /// Created on first use (the main creates it before any test, to decide whether to skip).
 dispmap::vulkan::Context& context();
+
+/// Whether the device rounds every operation as the C++ side does (lavapipe, measured): then the
+/// tests hold GPU results to the CPU's bit for bit, else to what Vulkan allows a device
+/// (dispmap::parity::strictFor; docs/figures.md has what an NVIDIA H200 gave).
+inline bool strict() { return dispmap::parity::strictFor(context(), dispmap::parity::Options{}); }
 
 /// CHECKs that the validation layer reported nothing since the last call; prints what it did report.
 inline void checkNoValidationMessages() {

@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <random>
 #include <string>
 
@@ -37,6 +38,14 @@ TEST_CASE("every mesostructure marcher agrees bit for bit between C++ and the co
 #include "dispmap/vulkan/meso_renderer.h"
 
 namespace {
+// Four ULP of the 16-layer slab's top: how far a device whose division does not round correctly
+// may put a hit beyond the slab (see the curved-base test).
+constexpr float kSlabUlps = 4.0f * 16.0f * std::numeric_limits<float>::epsilon();
+
+// How far an 8-bit colour may be from 255 times the CPU's: lavapipe rounds a UNORM8 conversion
+// to nearest (0.5, plus float noise); Vulkan lets other devices take either neighbour (1).
+double kUnormTolerance(bool strict) { return strict ? 0.51 : 1.01; }
+
 using dispmap::MesoMaps;
 using dispmap::MesoMethod;
 using dispmap::MesoTechnique;
@@ -268,9 +277,12 @@ TEST_CASE("on a curved base the renderer marches every pixel as the CPU marcher 
             // meets the floor on a zero height, the linear search can step past it (the sample
             // on the floor rounds to just above it) and the bisections close in from below,
             // half a final bracket under the floor: 16 voxels / 32 steps / 2^6 / 2 = 1/256.
+            // On a device whose division does not round correctly a floor hit o.z + t d.z may
+            // land an ULP or so off the floor (1 ULP of 16 measured on an NVIDIA H200): 4 ULP.
             if (img.hit[i]) {
                 INFO("hit z " << img.hitPoint[i].z);
-                CHECK((img.hitPoint[i].z >= (m == MesoMethod::Relief ? -1.0f / 256.0f : 0.0f) && img.hitPoint[i].z <= 16.0f));
+                const float slack = strict ? 0.0f : kSlabUlps;
+                CHECK((img.hitPoint[i].z >= (m == MesoMethod::Relief ? -1.0f / 256.0f : -slack) && img.hitPoint[i].z <= 16.0f + slack));
             }
             if (!(img.rayDir[i].z < 0)) {
                 ++backFaces;
@@ -407,7 +419,7 @@ TEST_CASE("the albedo is the CPU's at every hit; its mips remove the aliasing", 
             const glm::vec4 cpu = dispmap::sampleMesoAlbedo<float>(*o.albedo, glm::dvec2(img.hitPoint[i].x / 16.0f, img.hitPoint[i].y / 16.0f), 0.0);
             double worst = 0;
             for (int c = 0; c < 3; ++c) worst = std::max(worst, std::abs(double(img.rgba[4 * i + static_cast<std::size_t>(c)]) - 255.0 * double(cpu[c])));
-            close += worst <= 0.51 ? 1u : 0u; // UNORM8 rounds to nearest (plus float noise)
+            close += worst <= kUnormTolerance(strict) ? 1u : 0u;
         }
         INFO((curved ? "Spot" : "plane") << ": " << close << " of " << hits << " hit pixels within 0.51 of the CPU's colour");
         REQUIRE(hits > 500);
@@ -484,9 +496,8 @@ TEST_CASE("the normal map shades every hit as the CPU reads it, on the plane and
             double worst = 0;
             for (int k = 0; k < 3; ++k)
                 worst = std::max(worst, std::abs(double(img.rgba[4 * i + static_cast<std::size_t>(k)]) - 255.0 * double(albedo[k] * shade)));
-            // UNORM8 rounds to nearest (plus float noise); on the grid the frame's float
-            // rounding moves a colour by up to a level.
-            close += worst <= (c.grid ? 1.01 : 0.51) ? 1u : 0u;
+            // kUnormTolerance; on the grid the frame's float rounding moves a colour by up to a level.
+            close += worst <= kUnormTolerance(strict) + (c.grid ? 0.5 : 0.0) ? 1u : 0u;
         }
         INFO((c.grid ? "grid" : "plane") << ", scale " << c.scale << (c.greenUp ? ", green up" : ", green down") << (c.albedo ? ", with an albedo: " : ": ")
                                          << close << " of " << hits
@@ -722,7 +733,7 @@ TEST_CASE("a solid renders as the CPU's solid march, with its shadows, on the pl
             if (!img.covered[i] || !img.hit[i]) continue;
             ++hits;
             shadowed += img.shadowed[i];
-            CHECK((img.hitPoint[i].z >= 0.0f && img.hitPoint[i].z <= 16.0f)); // inside the shell
+            CHECK((img.hitPoint[i].z >= (strict ? 0.0f : -kSlabUlps) && img.hitPoint[i].z <= 16.0f + (strict ? 0.0f : kSlabUlps))); // inside the shell
             const dispmap::MesoSolidHit h = dispmap::marchDdmSolid<float>(dispmap::CompressedDdmView{&maps.ddm}, maps.ddm.cones, maps.solid,
                                                                           glm::dvec3(img.rayOrigin[i]), glm::dvec3(img.rayDir[i]), 256, 1);
             beads += h.triangle >= 0 ? 1u : 0u;
@@ -818,6 +829,7 @@ TEST_CASE("silhouettes and bent rays: no detail drawn outside the curved shell, 
     // camera ray crosses, the one whose interpolated frame gives the GPU's voxel ray), its hit
     // taken to the world (dmFramePoint) and measured against the exact shell.
     auto& ctx = dmgpu::context();
+    const bool strict = dmgpu::strict();
     const auto base = torusBase(24, 8, 96, 32);
     MesoRenderOptions o = smallScene(MesoMethod::Ddm);
     o.width = 96;
@@ -850,10 +862,15 @@ TEST_CASE("silhouettes and bent rays: no detail drawn outside the curved shell, 
             glm::dvec3 slab;
             const dispmap::MesoHit h = dispmap::marchMesoBent<float>(shadowMaps(), o.technique, glm::dvec3(img.rayOrigin[i]),
                                                                      glm::dvec3(img.rayDir[i]), double(img.bend[i]), &slab);
-            c.bentSame += h.hit == (img.hit[i] != 0) && h.iterations == static_cast<int>(img.iterations[i]) &&
-                                  (!h.hit || (float(h.t) == img.hitPoint[i].w && glm::vec3(slab) == glm::vec3(img.hitPoint[i])))
-                              ? 1u
-                              : 0u;
+            // Lavapipe: hit, count, t and slab point bit for bit. Another device (sqrt and
+            // division within Vulkan's few ULP, chords cut elsewhere): the same answer, t and the
+            // slab point within 1/16 voxel (the parity rows' bound, meso_parity.cpp).
+            const bool same = strict ? h.hit == (img.hit[i] != 0) && h.iterations == static_cast<int>(img.iterations[i]) &&
+                                           (!h.hit || (float(h.t) == img.hitPoint[i].w && glm::vec3(slab) == glm::vec3(img.hitPoint[i])))
+                                     : h.hit == (img.hit[i] != 0) &&
+                                           (!h.hit || (std::abs(h.t - double(img.hitPoint[i].w)) <= 1.0 / 16 &&
+                                                       glm::length(slab - glm::dvec3(img.hitPoint[i])) <= 1.0 / 16));
+            c.bentSame += same ? 1u : 0u;
             c.bent += img.bend[i] != 0.0f ? 1u : 0u;
         }
         for (int y = 0; y < o.height; ++y)
@@ -962,8 +979,13 @@ TEST_CASE("silhouettes and bent rays: no detail drawn outside the curved shell, 
                                                           << c.bentSame << " of " << c.bentRays << " rays as the CPU's bent march (" << c.bent << " bent), "
                                                           << c.overCut << " of " << c.cutFound << " cut pixels with their hit inside the shell, "
                                                           << c.shadowSame << " shadow rays as the CPU's (" << c.shadowCut << " cut)");
-        CHECK(c.found >= c.hits - c.hits / 100); // a pixel whose ray grazes a triangle edge may miss both on the CPU
-        CHECK(c.cutFound >= c.cut - c.cut / 10);
+        // A pixel whose ray grazes a triangle edge may miss both on the CPU; on a device whose
+        // rasteriser interpolates otherwise than lavapipe's, more (38 of 3270 on an NVIDIA H200).
+        CHECK(c.found >= c.hits - c.hits / (strict ? 100 : 25));
+        // A cut pixel is found when the CPU's exact barycentric frame gives the GPU's ray within
+        // 1e-3: at the outline's grazing pixels the rasteriser's interpolation decides that,
+        // and an NVIDIA H200's missed it for 25 of 80 (lavapipe's for under a tenth).
+        CHECK(c.cutFound >= (strict ? c.cut - c.cut / 10 : c.cut / 2));
         CHECK(c.overCut == 0);
         // The CPU's frame is the exact barycentric one, the GPU's the rasteriser's float
         // interpolation: a shadow ray at a grazing edge may go the other way.
@@ -995,7 +1017,7 @@ TEST_CASE("silhouettes and bent rays: no detail drawn outside the curved shell, 
     CHECK(bentCut.hits == bent.hits);
     CHECK(bentCut.outside == 0);
     CHECK(bent.bent > bent.bentRays / 2);
-    if (dispmap::parity::strictFor(ctx, dispmap::parity::Options{})) CHECK(bent.bentSame == bent.bentRays);
+    if (strict) CHECK(bent.bentSame == bent.bentRays);
     CHECK(bent.bentSame >= bent.bentRays - bent.bentRays / 50);
     // Without a base, or with one that carries no curvature, silhouettes are refused.
     MesoRenderOptions bad = smallScene(MesoMethod::Ddm);

@@ -74,7 +74,13 @@ template <class T> void checkSmoke(std::span<const std::uint32_t> spirv) {
     INFO(differing << " of " << n << " results differ; worst " << worstUlp << " ULP at x = " << xs[worst]
                    << " (GPU " << ys[worst] << ", C++ " << smokeReference(xs[worst]) << "); " << seconds * 1e3
                    << " ms on the GPU");
-    CHECK(differing == 0);
+    // Lavapipe rounds sqrt and division correctly (measured): bit for bit. Vulkan allows other
+    // devices 2.5 ULP for a division and a square root inherited from 1 / inversesqrt (2 ULP
+    // and a division): with the final division about 7 ULP of y, held to 8.
+    if (dmgpu::strict())
+        CHECK(differing == 0);
+    else
+        CHECK(worstUlp <= 8);
     dmgpu::checkNoValidationMessages();
 }
 
