@@ -67,7 +67,7 @@ int demo(bool quick) {
     std::cout << "\n";
     figures::printSwimFigure(std::cout, "");
     std::cout << "\n";
-    figures::printRenderTable(std::cout, {"dispmap-demo", "", quick ? 2 : 3, !quick, ""});
+    figures::printRenderTable(std::cout, {"dispmap-demo", "", quick ? 2 : 3, 1, !quick, "", ""});
     std::cout << "(images in dispmap-demo/)\n\n";
     figures::MesoTableArgs meso;
     meso.dataDir = DISPMAP_EXAMPLE_DATA;
@@ -441,24 +441,28 @@ int runParity(const ParityArgs& a) {
 }
 struct MesoArgs {
     std::string height, mesh, output, cones = "4x1", csv, images, data = DISPMAP_EXAMPLE_DATA;
-    int layers = 16, block = 4, size = 0;
+    int layers = 16, block = 4, size = 0, gpuWarmup = 1;
     double depth = -1;
     float spread = kDefaultCompressionSpread;
     bool shadow = false, table = false, curved = false;
 };
 
 int mesoCommand(const MesoArgs& a) {
+    if (a.gpuWarmup < 0 || a.gpuWarmup > figures::kMaxRenderFrames)
+        throw ArgumentError("--gpu-warmup " + std::to_string(a.gpuWarmup) + " is not in 0.." + std::to_string(figures::kMaxRenderFrames));
     if (a.table) {
         figures::MesoTableArgs t;
         t.dataDir = a.data;
         t.csv = a.csv;
         t.images = a.images;
+        t.gpuWarmup = a.gpuWarmup;
         figures::printMesoTable(std::cout, t);
         return 0;
     }
     if (a.curved) {
         figures::MesoTableArgs t;
         t.dataDir = a.data;
+        t.gpuWarmup = a.gpuWarmup;
         figures::printMesoCurvedTable(std::cout, t);
         return 0;
     }
@@ -642,7 +646,9 @@ int main(int argc, char** argv) {
                                                     "hardware tessellation, print GPU time, patches, triangles");
     renderCmd->add_option("scene", ra.scene, "scene file (JSON)");
     renderCmd->add_option("-o,--output", ra.output, "write the image (PNG)");
-    renderCmd->add_option("--frames", ra.frames, "timed frames (after one warm-up frame), 1..1000");
+    renderCmd->add_option("--frames", ra.frames, "timed frames, 1..1000");
+    renderCmd->add_option("--warmup", ra.warmup, "untimed frames before them, 0..1000 (default 1; a GPU raises its clocks under load: "
+                                                 "docs/figures.md used 30 on an NVIDIA H200)");
     renderCmd->add_option("--faces-per-draw", ra.facesPerDraw,
                           "patches per draw call, 1..32 (lavapipe slows down sharply on bigger draws; default 16)");
     renderCmd->add_option("--device", ra.device, "Vulkan device: index or name substring (default: lavapipe)");
@@ -652,6 +658,12 @@ int main(int argc, char** argv) {
     benchCmd->add_option("--render-csv", renderCsv, "also write the renderer table as CSV");
     benchCmd->add_option("--render-images", renderImages, "write the renderer table's images (PNG) to this folder");
     benchCmd->add_option("--render-frames", renderFrames, "timed frames per renderer row");
+    int renderWarmup = 1;
+    benchCmd->add_option("--render-warmup", renderWarmup, "untimed frames before each renderer row's timed ones (a GPU raises its clocks under load)");
+    std::string renderScene;
+    benchCmd->add_option("--render-scene", renderScene,
+                         "the renderer table on this scene file (a surface scene: its mesh, displacement, camera, resolution) "
+                         "instead of the default scene");
     MesoArgs ma;
     auto* mesoCmd = app.add_subcommand("meso", "per-pixel mesostructure: build the maps of a height image, or print the "
                                                 "accuracy-vs-time table (--table)");
@@ -673,6 +685,8 @@ int main(int argc, char** argv) {
     mesoCmd->add_option("--csv", ma.csv, "with --table: also write it as CSV");
     mesoCmd->add_option("--images", ma.images, "with --table: write the iteration pictures (PNG) to this folder");
     mesoCmd->add_option("--data", ma.data, "folder of the built-in scenes' images");
+    mesoCmd->add_option("--gpu-warmup", ma.gpuWarmup, "with --table or --curved: untimed frames before each GPU row's timed ones "
+                                                      "(default 1; a GPU raises its clocks under load)");
     figures::MapsTableArgs mta;
     mta.dataDir = DISPMAP_EXAMPLE_DATA;
     bool mapsTable = false;
@@ -760,7 +774,7 @@ int main(int argc, char** argv) {
             table("tessellation", [&] { figures::printTessellationTable(std::cout, tessCsv); });
             table("edit", [&] { figures::printEditTable(std::cout, editCsv); });
             table("seams", [&] { figures::printSeamsTable(std::cout, seamsCsv); });
-            table("render", [&] { figures::printRenderTable(std::cout, {renderImages, renderCsv, renderFrames, true, ""}); });
+            table("render", [&] { figures::printRenderTable(std::cout, {renderImages, renderCsv, renderFrames, renderWarmup, true, "", renderScene}); });
             table("cores", [&] { figures::printCoresTable(std::cout, cta); });
             eta.quick = cta.quick;
             table("embree", [&] { figures::printEmbreeTable(std::cout, eta); });

@@ -122,7 +122,7 @@ Stats measure(const std::vector<Pixel>& px, const std::function<MesoHit(const gl
 // The fragment shader's frame time for the table's camera: voxel space is world space scaled
 // by tileSize / W (cubic voxels) with the slab's top at z = 0.
 // With an albedo and a normal map when given (the shading row).
-double gpuFrameMs(vulkan::Context& ctx, const MesoCamera& camera, const MesoMaps& m, const MesoTechnique& t, int frames,
+double gpuFrameMs(vulkan::Context& ctx, const MesoCamera& camera, const MesoMaps& m, const MesoTechnique& t, int frames, int warmup,
                   std::shared_ptr<const MesoAlbedo> albedo = nullptr, std::shared_ptr<const MesoAlbedo> normalMap = nullptr) {
     const MesoHeightField& f = m.field; // a solid's: its sizes
     vulkan::MesoRenderOptions o;
@@ -139,6 +139,7 @@ double gpuFrameMs(vulkan::Context& ctx, const MesoCamera& camera, const MesoMaps
     o.quads = 8;
     o.technique = t;
     o.frames = frames;
+    o.warmup = warmup;
     o.albedo = std::move(albedo);
     o.normalMap = std::move(normalMap);
     return vulkan::renderMeso(ctx, m, o).gpuMs;
@@ -317,7 +318,7 @@ void printMesoTable(std::ostream& out, const MesoTableArgs& args) {
             o.device = args.device;
             ctx = std::make_unique<vulkan::Context>(o);
             out << "GPU column: fragment-shader frame time on " << ctx->deviceName() << (ctx->isSoftware() ? " (a CPU device)" : "")
-                << ", median of " << args.gpuFrames << " frames\n\n";
+                << ", median of " << args.gpuFrames << " frames after " << args.gpuWarmup << " untimed\n\n";
         } catch (const Error& e) {
             out << "(no GPU column: " << e.what() << ")\n\n";
         }
@@ -347,7 +348,7 @@ void printMesoTable(std::ostream& out, const MesoTableArgs& args) {
                 bytes = m.denseDdmBytes + (row.technique.quadrics ? m.quadrics.bytes() : 0);
                 compressed = m.ddm.bytes() + (row.technique.quadrics ? m.quadrics.bytes() : 0);
             }
-            if (ctx) st.gpu = gpuFrameMs(*ctx, scene.camera, m, row.technique, args.gpuFrames);
+            if (ctx) st.gpu = gpuFrameMs(*ctx, scene.camera, m, row.technique, args.gpuFrames, args.gpuWarmup);
             printRow(out, csv, scene.name, row.label, st, bytes, compressed);
             Goal& g = goals[scene.name];
             if (row.label == "DDM 4x1 + quadric") {
@@ -379,7 +380,7 @@ void printMesoTable(std::ostream& out, const MesoTableArgs& args) {
             std::vector<double> runs[4];
             for (int round = 0; round < 5; ++round)
                 for (std::size_t k = 0; k < 4; ++k)
-                    runs[k].push_back(gpuFrameMs(*ctx, scene.camera, maps.at("4x1"), ddm.technique, args.gpuFrames, (k & 1) ? albedo : nullptr,
+                    runs[k].push_back(gpuFrameMs(*ctx, scene.camera, maps.at("4x1"), ddm.technique, args.gpuFrames, args.gpuWarmup, (k & 1) ? albedo : nullptr,
                                                  (k & 2) ? normals : nullptr));
             double ms[4];
             for (std::size_t k = 0; k < 4; ++k) ms[k] = percentile(runs[k], 0.5);
@@ -469,7 +470,7 @@ void printMesoTable(std::ostream& out, const MesoTableArgs& args) {
                 MesoTechnique tq;
                 tq.iterations = 1024;
                 tq.exitRule = rule;
-                if (ctx) st.gpu = gpuFrameMs(*ctx, cam, maps, tq, args.gpuFrames);
+                if (ctx) st.gpu = gpuFrameMs(*ctx, cam, maps, tq, args.gpuFrames, args.gpuWarmup);
                 const std::string label = (name == "isotropic" ? "conservative isotropic" : "DDM " + name.substr(0, 3)) + " + triangles" +
                                           (rule == 0 ? " (paper's t+d)" : "");
                 printRow(out, csv, "beads", label, st, maps.denseDdmBytes + triBytes, c.bytes() + triBytes);

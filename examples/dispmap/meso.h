@@ -59,6 +59,7 @@ struct MesoTableArgs {
     bool gpu = true;
     std::string device;
     int gpuFrames = 5;
+    int gpuWarmup = 1; ///< untimed frames before them (a GPU raises its clocks under load)
 };
 /// Prints, per scene, iterations (mean, p99), hit error against the exact reference (mean,
 /// p99, texels; misses and false hits as a share), memory read by the method (uncompressed and

@@ -178,6 +178,7 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
         const double baseS = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         vulkan::MesoRenderOptions o = mesoSceneRenderOptions(s);
         o.frames = args.gpuFrames;
+        o.warmup = args.gpuWarmup;
         const auto stats = [&](const vulkan::MesoImage& im) {
             double it = 0, sit = 0;
             std::size_t covered = 0, hits = 0;

@@ -46,6 +46,7 @@ int renderMesoCommand(const RenderArgs& a, const nlohmann::json& j) {
     const MesoSceneDesc s = parseMesoScene(j, a.scene, std::filesystem::path(a.scene).parent_path().string());
     MesoSceneGpu scene = buildMesoSceneGpu(s);
     scene.options.frames = a.frames;
+    scene.options.warmup = a.warmup;
     const vulkan::MesoRenderOptions& o = scene.options;
     const std::vector<MesoSceneDesc>& descs = scene.descs;
     const std::vector<MesoMaps>& maps = scene.maps;
@@ -115,6 +116,8 @@ int renderMesoCommand(const RenderArgs& a, const nlohmann::json& j) {
 
 int renderCommand(const RenderArgs& a) {
     // The options first: a scene can take seconds to build.
+    if (a.warmup < 0 || a.warmup > kMaxRenderFrames)
+        throw ArgumentError("--warmup " + std::to_string(a.warmup) + " is not in 0.." + std::to_string(kMaxRenderFrames));
     if (a.frames < 1 || a.frames > kMaxRenderFrames)
         throw ArgumentError("--frames " + std::to_string(a.frames) + " is not in 1.." + std::to_string(kMaxRenderFrames) +
                             " (each frame is drawn in full: the cap keeps a typo from running for hours)");
@@ -165,7 +168,7 @@ int renderCommand(const RenderArgs& a) {
     vulkan::SurfaceRenderer r(*ctx, scene, s.surface, s.atlas ? &*s.atlas : nullptr, o);
     const double rendererMs = msSince(t0);
     t0 = Clock::now();
-    const vulkan::RenderedImage im = r.render(a.frames, 1);
+    const vulkan::RenderedImage im = r.render(a.frames, a.warmup);
     const double framesMs = msSince(t0);
     if (!a.output.empty()) writePng(im, a.output);
     const SurfaceEffects& e = scene.effects;
@@ -178,7 +181,7 @@ int renderCommand(const RenderArgs& a) {
               << (a.output.empty() ? "" : ", wrote " + a.output) << "\n"
               << "  host: surface " << fixed(surfaceMs, 1) << " ms (base surface, tiles, DisplacedSurface), device " << fixed(deviceMs, 1)
               << " ms, renderer " << fixed(rendererMs, 1) << " ms (pipelines, uploads), frames " << fixed(framesMs, 1) << " ms wall for "
-              << im.stats.frames + 1 << " (one warm-up; GPU " << fixed(im.stats.gpuMs, 1) << " ms a frame)\n";
+              << im.stats.frames + a.warmup << " (" << a.warmup << " untimed; GPU " << fixed(im.stats.gpuMs, 1) << " ms a frame)\n";
     int status = 0;
     for (const std::string& m : ctx->takeValidationMessages()) {
         std::cerr << "validation: " << m << "\n";
@@ -188,7 +191,20 @@ int renderCommand(const RenderArgs& a) {
 }
 
 void printRenderTable(std::ostream& out, const RenderTableArgs& a) {
+    if (a.frames < 1 || a.frames > kMaxRenderFrames || a.warmup < 0 || a.warmup > kMaxRenderFrames)
+        throw ArgumentError("--render-frames " + std::to_string(a.frames) + " / --render-warmup " + std::to_string(a.warmup) +
+                            ": the timed frames must be in 1.." + std::to_string(kMaxRenderFrames) + " and the untimed ones in 0.." +
+                            std::to_string(kMaxRenderFrames));
     Scene scene = defaultScene();
+    if (!a.scene.empty()) {
+        const nlohmann::json j = loadSceneJson(a.scene);
+        if (isMesoScene(j)) throw ArgumentError("--render-scene " + a.scene + ": a mesostructure scene; the renderer table needs a surface scene");
+        scene = parseSceneDocument(j, a.scene, std::filesystem::path(a.scene).parent_path().string());
+        // What the rows vary is theirs to set: uniform factors up to 64, no wireframe.
+        scene.effects.tessMethod = TessMethod::Uniform;
+        scene.effects.maxFactor = 64;
+        scene.effects.wireframe = false;
+    }
     SceneSurface s(scene);
     const BaselineAtlas& atlas = s.bake(scene);
     auto ctx = makeContext(a.device, false);
@@ -231,9 +247,9 @@ void printRenderTable(std::ostream& out, const RenderTableArgs& a) {
 
     CsvOut csv(a.csvPath, "variant,factor,gpu_ms,ratio_to_base,triangles,rms_color,mean_normal_deg,max_normal_deg,coverage_mismatch,"
                           "shading_mean_deg,shading_max_deg");
-    out << "Renderer (default scene, " << scene.width << " x " << scene.height << ", uniform factors, fractional_even; device "
+    out << "Renderer (" << (a.scene.empty() ? std::string("default scene") : "scene " + a.scene) << ", " << scene.width << " x " << scene.height << ", uniform factors, fractional_even; device "
         << ctx->deviceName() << (ctx->isSoftware() ? ": a CPU implementation, so GPU time here is CPU time" : "") << ").\n"
-        << "GPU time: median of " << a.frames << " frames (timestamp queries). Error against an accurate-normal, factor-64,\n"
+        << "GPU time: median of " << a.frames << " frames after " << a.warmup << " untimed (timestamp queries). Error against an accurate-normal, factor-64,\n"
         << "no-mip render of the same scene: RMS of the 8-bit colour, mean/max angle between normals where both\n"
         << "cover the pixel, share of pixels covered by only one. Shading: the normal's angle to the accurate\n"
         << "normal of the same geometry (same factor and LOD, so the pixels see the same surface points).\n";
@@ -248,7 +264,7 @@ void printRenderTable(std::ostream& out, const RenderTableArgs& a) {
         sc.effects.lod = row.lod;
         sc.effects.tessValue = row.factor;
         vulkan::SurfaceRenderer r(*ctx, sc, s.surface, row.technique == Technique::Baseline ? &atlas : nullptr);
-        const vulkan::RenderedImage im = r.render(a.frames, 1);
+        const vulkan::RenderedImage im = r.render(a.frames, a.warmup);
         if (row.technique == Technique::Base && row.factor == factor) baseMs = im.stats.gpuMs;
         const vulkan::ImageError e = vulkan::compareImages(im, ref);
         // The same geometry with accurate normals: what the normal mode alone costs in shading.
@@ -274,6 +290,8 @@ void printRenderTable(std::ostream& out, const RenderTableArgs& a) {
     // the machine's noise; and the wireframe pass, which exists only when asked for.
     out << "\nEffects switched off against effects not built (displaced, approximate, LOD off, factor " << factor << "):\n";
     Scene sc = scene;
+    sc.effects.technique = Technique::Displaced;
+    sc.effects.normals = NormalMode::Approximate;
     sc.effects.lod = MipSelection::Off;
     sc.effects.tessValue = factor;
     vulkan::RendererOptions lean;
@@ -281,15 +299,15 @@ void printRenderTable(std::ostream& out, const RenderTableArgs& a) {
     vulkan::SurfaceRenderer full(*ctx, sc, s.surface), built(*ctx, sc, s.surface, nullptr, lean);
     std::vector<double> tf, tl;
     for (int round = 0; round < 5; ++round) {
-        tf.push_back(full.render(a.frames, 1).stats.gpuMs);
-        tl.push_back(built.render(a.frames, 1).stats.gpuMs);
+        tf.push_back(full.render(a.frames, a.warmup).stats.gpuMs);
+        tl.push_back(built.render(a.frames, a.warmup).stats.gpuMs);
     }
     std::sort(tf.begin(), tf.end());
     std::sort(tl.begin(), tl.end());
     out << "  specialised off: " << fixed(tf[2], 2) << " ms; not built: " << fixed(tl[2], 2) << " ms; ratio "
         << fixed(tf[2] / tl[2], 3) << " (medians of 5 alternating rounds of " << a.frames << " frames)\n";
     sc.effects.wireframe = true;
-    const vulkan::RenderedImage wire = vulkan::SurfaceRenderer(*ctx, sc, s.surface).render(a.frames, 1);
+    const vulkan::RenderedImage wire = vulkan::SurfaceRenderer(*ctx, sc, s.surface).render(a.frames, a.warmup);
     out << "  with the wireframe overlay (a second pipeline, built only when asked for): " << fixed(wire.stats.gpuMs, 2)
         << " ms, " << fixed(wire.stats.gpuMs / tl[1], 2) << "x\n";
     if (!a.imageDir.empty()) writePng(wire, a.imageDir + "/wireframe.png");

@@ -22,7 +22,8 @@ inline constexpr std::uint64_t kMaxSoftwareTrianglesPerFrame = 50'000'000;
 struct RenderArgs {
     std::string scene;        ///< scene file; empty: the embedded default scene
     std::string output;       ///< PNG to write; empty: none
-    int frames = 3;           ///< timed frames (after one warm-up frame), 1..kMaxRenderFrames
+    int frames = 3;           ///< timed frames, 1..kMaxRenderFrames
+    int warmup = 1;           ///< untimed frames before them, 0..kMaxRenderFrames (a GPU raises its clocks under load)
     int facesPerDraw = 16;    ///< 1..kMaxFacesPerDraw
     std::string device;       ///< Vulkan device (index or name substring); empty: lavapipe
     bool validation = false;
@@ -34,11 +35,16 @@ int renderCommand(const RenderArgs& args);
 struct RenderTableArgs {
     std::string imageDir;     ///< write each row's image here as PNG (empty: none)
     std::string csvPath;      ///< also write the table as CSV (empty: none)
-    int frames = 3;
+    int frames = 3;           ///< timed frames per row
+    int warmup = 1;           ///< untimed frames before them (a GPU raises its clocks under load)
     bool factorSweep = true;  ///< the rows for factors 2..64
     std::string device;
+    /// A scene file (JSON, a tessellated surface) instead of the default scene: its mesh,
+    /// displacement, camera, lights and resolution; each row sets technique, normals, LOD and
+    /// a uniform factor.
+    std::string scene;
 };
-/// The renderer's table on the default scene, one run: base surface; displaced with
+/// The renderer's table on the default scene (or RenderTableArgs::scene), one run: base surface; displaced with
 /// approximate, accurate and auto normals; LOD off and on; factors 2..64; the traditional
 /// baseline. GPU time (median of `frames`), triangles, and the image error against an
 /// accurate-normal, factor-64 reference render. Then the effects table: the frame time of a

@@ -100,8 +100,8 @@ class SurfaceRenderer {
     SurfaceRenderer(const SurfaceRenderer&) = delete;
     SurfaceRenderer& operator=(const SurfaceRenderer&) = delete;
 
-    /// Renders `frames` times (the first `warmup` untimed: lavapipe compiles shaders at first
-    /// use) and reads back the last. GPU time is the median over the timed frames. Each frame is
+    /// Renders warmup + frames times (the first `warmup` untimed: lavapipe compiles shaders at
+    /// first use, a GPU raises its clocks under load) and reads back the last. GPU time is the median over the timed frames. Each frame is
     /// recordUpdate + recordDraw into the renderer's own targets (colour R8G8B8A8_UNORM, normal
     /// R32G32B32A32_SFLOAT, depth D32_SFLOAT, at the current image size), submitted and waited
     /// for. ArgumentError for frames < 1 or warmup < 0, or with RendererOptions::target set.
