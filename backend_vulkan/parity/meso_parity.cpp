@@ -376,8 +376,8 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
                     // The distance of the hits along the ray (voxel-space rays are unit vectors).
                     err = (gpu[i].x != 0) != cpu.hit ? std::numeric_limits<double>::infinity() : std::abs(double(tc) - double(tg));
                     if (!std::isfinite(err)) ++flips;
-                    for (std::size_t k = 0; k < spread.size(); ++k) spread[k].second += err > spread[k].first ? 1u : 0u;
-                    res.over += err > res.bound ? 1u : 0u;
+                    for (std::size_t k = 0; k < spread.size(); ++k) spread[k].second += !(err <= spread[k].first) ? 1u : 0u;
+                    res.over += !(err <= res.bound) ? 1u : 0u; // a NaN t is over too
                 } else if (!sameDecision) {
                     err = std::numeric_limits<double>::infinity(); // a different path: no ULP measure
                 } else if (!same) {
