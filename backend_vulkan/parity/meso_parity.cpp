@@ -373,9 +373,13 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
                 const bool same = sameDecision && (std::memcmp(&tc, &tg, sizeof tc) == 0 || (tc == 0.0f && tg == 0.0f));
                 double err = 0;
                 if (!strict) {
-                    // The distance of the hits along the ray (voxel-space rays are unit vectors).
-                    err = (gpu[i].x != 0) != cpu.hit ? std::numeric_limits<double>::infinity() : std::abs(double(tc) - double(tg));
-                    if (!std::isfinite(err)) ++flips;
+                    // The distance of the hits along the ray (voxel-space rays are unit vectors);
+                    // a miss on both sides has no hit to compare (its t is where the last step
+                    // ended); a NaN is over every bound.
+                    const bool gpuHit = gpu[i].x != 0;
+                    flips += gpuHit != cpu.hit ? 1u : 0u;
+                    err = gpuHit != cpu.hit ? std::numeric_limits<double>::infinity() : !cpu.hit ? 0.0 : std::abs(double(tc) - double(tg));
+                    if (std::isnan(err)) err = std::numeric_limits<double>::infinity();
                     for (std::size_t k = 0; k < spread.size(); ++k) spread[k].second += !(err <= spread[k].first) ? 1u : 0u;
                     res.over += !(err <= res.bound) ? 1u : 0u; // a NaN t is over too
                 } else if (!sameDecision) {
@@ -401,7 +405,7 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
             if (!strict) {
                 // How far the hits spread: shares of the rays over 1e-4 ... 1/4 voxel, and whose hit/miss differs.
                 std::ostringstream s;
-                s << std::setprecision(2);
+                s << std::setprecision(4);
                 for (const auto& [limit, over] : spread) s << "> " << limit << ": " << 100.0 * double(over) / double(rays.size()) << "%, ";
                 s << "hit/miss differs: " << 100.0 * double(flips) / double(rays.size()) << "%; worst " << res.worstInput;
                 res.worstInput = s.str();

@@ -659,7 +659,8 @@ int main(int argc, char** argv) {
     benchCmd->add_option("--render-images", renderImages, "write the renderer table's images (PNG) to this folder");
     benchCmd->add_option("--render-frames", renderFrames, "timed frames per renderer row");
     int renderWarmup = 1;
-    benchCmd->add_option("--render-warmup", renderWarmup, "untimed frames before each renderer row's timed ones (a GPU raises its clocks under load)");
+    benchCmd->add_option("--render-warmup", renderWarmup,
+                         "untimed frames before each renderer row's timed ones, 0..1000 (default 1; a GPU raises its clocks under load)");
     std::string renderScene;
     benchCmd->add_option("--render-scene", renderScene,
                          "the renderer table on this scene file (a surface scene: its mesh, displacement, camera, resolution) "
@@ -685,8 +686,8 @@ int main(int argc, char** argv) {
     mesoCmd->add_option("--csv", ma.csv, "with --table: also write it as CSV");
     mesoCmd->add_option("--images", ma.images, "with --table: write the iteration pictures (PNG) to this folder");
     mesoCmd->add_option("--data", ma.data, "folder of the built-in scenes' images");
-    mesoCmd->add_option("--gpu-warmup", ma.gpuWarmup, "with --table or --curved: untimed frames before each GPU row's timed ones "
-                                                      "(default 1; a GPU raises its clocks under load)");
+    mesoCmd->add_option("--gpu-warmup", ma.gpuWarmup, "with --table or --curved: untimed frames before each GPU row's timed ones, "
+                                                      "0..1000 (default 1; a GPU raises its clocks under load)");
     figures::MapsTableArgs mta;
     mta.dataDir = DISPMAP_EXAMPLE_DATA;
     bool mapsTable = false;
@@ -758,6 +759,8 @@ int main(int argc, char** argv) {
             return 0;
         }
         if (*benchCmd) {
+            const figures::RenderTableArgs renderArgs{renderImages, renderCsv, renderFrames, renderWarmup, true, "", renderScene};
+            if (only.empty() || only == "render") figures::checkRenderTableArgs(renderArgs); // bad arguments before any table runs
             // Every table, or the one --only names (then no timings either).
             // The Embree and cages tables take minutes and, for the bunny at isolation 6, about
             // 10 GB: only when --only names them.
@@ -774,7 +777,7 @@ int main(int argc, char** argv) {
             table("tessellation", [&] { figures::printTessellationTable(std::cout, tessCsv); });
             table("edit", [&] { figures::printEditTable(std::cout, editCsv); });
             table("seams", [&] { figures::printSeamsTable(std::cout, seamsCsv); });
-            table("render", [&] { figures::printRenderTable(std::cout, {renderImages, renderCsv, renderFrames, renderWarmup, true, "", renderScene}); });
+            table("render", [&] { figures::printRenderTable(std::cout, renderArgs); });
             table("cores", [&] { figures::printCoresTable(std::cout, cta); });
             eta.quick = cta.quick;
             table("embree", [&] { figures::printEmbreeTable(std::cout, eta); });

@@ -195,7 +195,7 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
             return r.str();
         };
         out << "\nThe renderer (" << ctx.deviceName() << ", " << o.width << " x " << o.height << ", DDM 4x1 + quadrics, shadows, median of "
-            << o.frames << " frames; covered: pixels the base covers, back faces included; iterations over them):\n\n"
+            << o.frames << " frames after " << o.warmup << " untimed; covered: pixels the base covers, back faces included; iterations over them):\n\n"
             << "| base | GPU time | pixels covered | hits | view iterations (mean) | shadow iterations (mean) |\n|---|---|---|---|---|---|\n";
         // The plane beside it: the bricks scene's camera and light, the default checker.
         vulkan::MesoRenderOptions plane = o;

@@ -190,21 +190,32 @@ int renderCommand(const RenderArgs& a) {
     return status;
 }
 
-void printRenderTable(std::ostream& out, const RenderTableArgs& a) {
+namespace {
+// The scene printRenderTable draws, its arguments checked.
+Scene renderTableScene(const RenderTableArgs& a) {
     if (a.frames < 1 || a.frames > kMaxRenderFrames || a.warmup < 0 || a.warmup > kMaxRenderFrames)
         throw ArgumentError("--render-frames " + std::to_string(a.frames) + " / --render-warmup " + std::to_string(a.warmup) +
                             ": the timed frames must be in 1.." + std::to_string(kMaxRenderFrames) + " and the untimed ones in 0.." +
                             std::to_string(kMaxRenderFrames));
-    Scene scene = defaultScene();
-    if (!a.scene.empty()) {
-        const nlohmann::json j = loadSceneJson(a.scene);
-        if (isMesoScene(j)) throw ArgumentError("--render-scene " + a.scene + ": a mesostructure scene; the renderer table needs a surface scene");
-        scene = parseSceneDocument(j, a.scene, std::filesystem::path(a.scene).parent_path().string());
-        // What the rows vary is theirs to set: uniform factors up to 64, no wireframe.
-        scene.effects.tessMethod = TessMethod::Uniform;
-        scene.effects.maxFactor = 64;
-        scene.effects.wireframe = false;
-    }
+    if (a.scene.empty()) return defaultScene();
+    const nlohmann::json j = loadSceneJson(a.scene);
+    if (isMesoScene(j)) throw ArgumentError("--render-scene " + a.scene + ": a mesostructure scene; the renderer table needs a surface scene");
+    Scene scene = parseSceneDocument(j, a.scene, std::filesystem::path(a.scene).parent_path().string());
+    // What the rows vary is theirs to set: the technique (the reference is the displaced
+    // surface), uniform factors up to 64 with the header's spacing, no wireframe.
+    scene.effects.technique = Technique::Displaced;
+    scene.effects.spacing = Spacing::FractionalEven;
+    scene.effects.tessMethod = TessMethod::Uniform;
+    scene.effects.maxFactor = 64;
+    scene.effects.wireframe = false;
+    return scene;
+}
+} // namespace
+
+void checkRenderTableArgs(const RenderTableArgs& a) { static_cast<void>(renderTableScene(a)); }
+
+void printRenderTable(std::ostream& out, const RenderTableArgs& a) {
+    Scene scene = renderTableScene(a);
     SceneSurface s(scene);
     const BaselineAtlas& atlas = s.bake(scene);
     auto ctx = makeContext(a.device, false);

@@ -50,5 +50,8 @@ struct RenderTableArgs {
 /// accurate-normal, factor-64 reference render. Then the effects table: the frame time of a
 /// pipeline with the effects specialised off against one built without them.
 void printRenderTable(std::ostream& out, const RenderTableArgs& args);
+/// Checks printRenderTable's arguments and reads its scene file (ArgumentError, SceneError):
+/// what `dispmap bench` does before its first table.
+void checkRenderTableArgs(const RenderTableArgs& args);
 
 } // namespace dispmap::figures

@@ -445,7 +445,7 @@ TEST_CASE("the albedo is the CPU's at every hit; its mips remove the aliasing", 
             for (int c = 0; c < 3; ++c) worst = std::max(worst, std::abs(double(img.rgba[4 * i + static_cast<std::size_t>(c)]) - 255.0 * double(cpu[c])));
             close += worst <= kUnormTolerance(strict) ? 1u : 0u;
         }
-        INFO((curved ? "Spot" : "plane") << ": " << close << " of " << hits << " hit pixels within 0.51 of the CPU's colour");
+        INFO((curved ? "Spot" : "plane") << ": " << close << " of " << hits << " hit pixels within " << kUnormTolerance(strict) << " of the CPU's colour");
         REQUIRE(hits > 500);
         if (strict) CHECK(close == hits);
         CHECK(double(close) >= 0.99 * double(hits));
