@@ -101,10 +101,11 @@ class SurfaceRenderer {
     SurfaceRenderer& operator=(const SurfaceRenderer&) = delete;
 
     /// Renders warmup + frames times (the first `warmup` untimed: lavapipe compiles shaders at
-    /// first use, a GPU raises its clocks under load) and reads back the last. GPU time is the median over the timed frames. Each frame is
-    /// recordUpdate + recordDraw into the renderer's own targets (colour R8G8B8A8_UNORM, normal
-    /// R32G32B32A32_SFLOAT, depth D32_SFLOAT, at the current image size), submitted and waited
-    /// for. ArgumentError for frames < 1 or warmup < 0, or with RendererOptions::target set.
+    /// first use, a GPU raises its clocks under load) and reads back the last. GPU time is the
+    /// median over the timed frames. Each frame is recordUpdate + recordDraw into the
+    /// renderer's own targets (colour R8G8B8A8_UNORM, normal R32G32B32A32_SFLOAT, depth
+    /// D32_SFLOAT, at the current image size), submitted and waited for. ArgumentError for
+    /// frames < 1 or warmup < 0, or with RendererOptions::target set.
     RenderedImage render(int frames = 1, int warmup = 1);
 
     /// Outside any render pass / rendering instance: writes this frame's parameters (camera, factors, lights) and any pending geometry into the renderer's buffers with vkCmdUpdateBuffer (so several frames may be in flight) and the barriers the draw needs.
