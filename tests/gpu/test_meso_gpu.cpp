@@ -62,8 +62,8 @@ TEST_CASE("every mesostructure marcher agrees bit for bit between C++ and the co
 #include "dispmap/vulkan/meso_renderer.h"
 
 namespace {
-// Four ULP of the 16-layer slab's top: how far a device whose division does not round correctly
-// may put a hit beyond the slab (see the curved-base test).
+// Four ULP of the 16-layer slab's top: how far a device whose division is not correctly rounded
+// (Vulkan allows 2.5 ULP) may put a hit beyond the slab (see the curved-base test).
 constexpr float kSlabUlps = 4.0f * 16.0f * std::numeric_limits<float>::epsilon();
 
 // How far an 8-bit colour may be from 255 times the CPU's: lavapipe rounds a UNORM8 conversion
@@ -301,7 +301,7 @@ TEST_CASE("on a curved base the renderer marches every pixel as the CPU marcher 
             // meets the floor on a zero height, the linear search can step past it (the sample
             // on the floor rounds to just above it) and the bisections close in from below,
             // half a final bracket under the floor: 16 voxels / 32 steps / 2^6 / 2 = 1/256.
-            // On a device whose division does not round correctly a floor hit o.z + t d.z may
+            // On a device whose division is not correctly rounded a floor hit o.z + t d.z may
             // land an ULP or so off the floor (1 ULP of 16 measured on an NVIDIA H200): 4 ULP.
             if (img.hit[i]) {
                 INFO("hit z " << img.hitPoint[i].z);
