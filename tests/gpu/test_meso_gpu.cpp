@@ -68,7 +68,7 @@ constexpr float kSlabUlps = 4.0f * 16.0f * std::numeric_limits<float>::epsilon()
 
 // How far an 8-bit colour may be from 255 times the CPU's: lavapipe rounds a UNORM8 conversion
 // to nearest (0.5, plus float noise); Vulkan lets other devices take either neighbour (1).
-double kUnormTolerance(bool strict) { return strict ? 0.51 : 1.01; }
+double unormTolerance(bool strict) { return strict ? 0.51 : 1.01; }
 
 using dispmap::MesoMaps;
 using dispmap::MesoMethod;
@@ -123,7 +123,7 @@ RayParity rayParity(const MesoMaps& maps, const MesoTechnique& tq, const MesoIma
 
 TEST_CASE("the mesostructure renderer marches every pixel as the CPU marcher does", "[meso]") {
     auto& ctx = dmgpu::context();
-    const bool strict = dispmap::parity::strictFor(ctx, dispmap::parity::Options{});
+    const bool strict = dmgpu::strict();
     for (const MesoMethod m : {MesoMethod::DistanceMap, MesoMethod::Ddm, MesoMethod::Relief, MesoMethod::Pom}) {
         MesoRenderOptions o = smallScene(m);
         const MesoImage img = dispmap::vulkan::renderMeso(ctx, shadowMaps(), o);
@@ -179,7 +179,7 @@ TEST_CASE("the renderer's pixel rays agree with camera rays computed on the CPU"
 
 TEST_CASE("shadows change only the pixels whose shadow ray the CPU finds blocked", "[meso]") {
     auto& ctx = dmgpu::context();
-    const bool strict = dispmap::parity::strictFor(ctx, dispmap::parity::Options{});
+    const bool strict = dmgpu::strict();
     MesoRenderOptions o = smallScene(MesoMethod::Ddm);
     o.lightDirection = glm::dvec3(0.8, 0.2, 0.35); // low light: long shadows behind the wall and the spike
     const MesoImage off = dispmap::vulkan::renderMeso(ctx, shadowMaps(), o);
@@ -282,7 +282,7 @@ MesoRenderOptions spotScene(MesoMethod method) {
 
 TEST_CASE("on a curved base the renderer marches every pixel as the CPU marcher does", "[meso]") {
     auto& ctx = dmgpu::context();
-    const bool strict = dispmap::parity::strictFor(ctx, dispmap::parity::Options{});
+    const bool strict = dmgpu::strict();
     for (const MesoMethod m : {MesoMethod::DistanceMap, MesoMethod::Ddm, MesoMethod::Relief, MesoMethod::Pom}) {
         MesoRenderOptions o = spotScene(m);
         o.shadows = m == MesoMethod::Ddm;
@@ -428,7 +428,7 @@ std::shared_ptr<const dispmap::MesoAlbedo> albedoOf(int w, int h, bool mips, boo
 
 TEST_CASE("the albedo is the CPU's at every hit; its mips remove the aliasing", "[meso]") {
     auto& ctx = dmgpu::context();
-    const bool strict = dispmap::parity::strictFor(ctx, dispmap::parity::Options{});
+    const bool strict = dmgpu::strict();
     for (const bool curved : {false, true}) {
         // Unlit (ambient 1: the shade factor is exactly 1), one level: the colour is the
         // bilinear albedo at the hit, as the CPU samples it, to the 8-bit target's rounding.
@@ -443,9 +443,9 @@ TEST_CASE("the albedo is the CPU's at every hit; its mips remove the aliasing", 
             const glm::vec4 cpu = dispmap::sampleMesoAlbedo<float>(*o.albedo, glm::dvec2(img.hitPoint[i].x / 16.0f, img.hitPoint[i].y / 16.0f), 0.0);
             double worst = 0;
             for (int c = 0; c < 3; ++c) worst = std::max(worst, std::abs(double(img.rgba[4 * i + static_cast<std::size_t>(c)]) - 255.0 * double(cpu[c])));
-            close += worst <= kUnormTolerance(strict) ? 1u : 0u;
+            close += worst <= unormTolerance(strict) ? 1u : 0u;
         }
-        INFO((curved ? "Spot" : "plane") << ": " << close << " of " << hits << " hit pixels within " << kUnormTolerance(strict) << " of the CPU's colour");
+        INFO((curved ? "Spot" : "plane") << ": " << close << " of " << hits << " hit pixels within " << unormTolerance(strict) << " of the CPU's colour");
         REQUIRE(hits > 500);
         if (strict) CHECK(close == hits);
         CHECK(double(close) >= 0.99 * double(hits));
@@ -478,7 +478,7 @@ TEST_CASE("the albedo is the CPU's at every hit; its mips remove the aliasing", 
 // --- The normal map (meso/albedo.h, kern::dmNormalMapTangent) -----------------------------------
 TEST_CASE("the normal map shades every hit as the CPU reads it, on the plane and on a base", "[meso]") {
     auto& ctx = dmgpu::context();
-    const bool strict = dispmap::parity::strictFor(ctx, dispmap::parity::Options{});
+    const bool strict = dmgpu::strict();
     // A 7 x 5 map of random heights (slopes up to about 1), one level: at each hit the shading
     // normal is the map's bilinear texel read at the hit, as the CPU reads it. With an albedo
     // too, the map's words start after the albedo's in the one image buffer.
@@ -520,8 +520,8 @@ TEST_CASE("the normal map shades every hit as the CPU reads it, on the plane and
             double worst = 0;
             for (int k = 0; k < 3; ++k)
                 worst = std::max(worst, std::abs(double(img.rgba[4 * i + static_cast<std::size_t>(k)]) - 255.0 * double(albedo[k] * shade)));
-            // kUnormTolerance; on the grid the frame's float rounding moves a colour by up to a level.
-            close += worst <= kUnormTolerance(strict) + (c.grid ? 0.5 : 0.0) ? 1u : 0u;
+            // unormTolerance; on the grid the frame's float rounding moves a colour by up to a level.
+            close += worst <= unormTolerance(strict) + (c.grid ? 0.5 : 0.0) ? 1u : 0u;
         }
         INFO((c.grid ? "grid" : "plane") << ", scale " << c.scale << (c.greenUp ? ", green up" : ", green down") << (c.albedo ? ", with an albedo: " : ": ")
                                          << close << " of " << hits
@@ -628,7 +628,7 @@ struct TwoParts {
 
 TEST_CASE("several mesostructures in one pass: each pixel as its part alone draws it", "[meso]") {
     auto& ctx = dmgpu::context();
-    const bool strict = dispmap::parity::strictFor(ctx, dispmap::parity::Options{});
+    const bool strict = dmgpu::strict();
     const TwoParts t;
     const MesoImage both = dispmap::vulkan::renderMeso(ctx, t.parts, t.scene);
     std::size_t drawn[2] = {0, 0}, same = 0, hits = 0;
@@ -736,7 +736,7 @@ const MesoMaps& beadMaps() { // the parity runner's four beads, 4 x 1 view cones
 
 TEST_CASE("a solid renders as the CPU's solid march, with its shadows, on the plane and on Spot", "[meso][solid]") {
     auto& ctx = dmgpu::context();
-    const bool strict = dispmap::parity::strictFor(ctx, dispmap::parity::Options{});
+    const bool strict = dmgpu::strict();
     const MesoMaps& maps = beadMaps();
     const std::vector<glm::uvec4> rows = dispmap::packSolid(maps.solid).triangles;
     for (const bool spot : {false, true}) {
