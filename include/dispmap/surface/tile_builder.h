@@ -164,24 +164,44 @@ inline int coarsestTileWithin(std::vector<double>& fine, int kMax, double tolera
 namespace detail {
 
 /// The working state of a build: every level of every tile in double precision.
+///
+/// Memory: the sweeps of a large set are bound by memory, not arithmetic (a tile of 4 x 4 has
+/// 16 unknowns and reads 20 ring texels of other tiles), so the state is kept compact and in
+/// the order the sweeps walk it: one array holds every tile's level 0 in tile order, then every
+/// tile's level 1, and so on (levels 0..k-1 and the virtual level k of size 1, see
+/// sourceLevelAt); the fit solves straight into level 0's interior, keeping aside only the
+/// four corner texels it solved (which the corner constraint overwrites there); the ring plans
+/// are flat arrays.
 class TileBuild {
   public:
     TileBuild(const TileTopology& topo, std::vector<int> k) : topo_(topo), k_(std::move(k)) {
         const int n = topo.tileCount();
-        data_.resize(static_cast<std::size_t>(n));
-        fit_.resize(static_cast<std::size_t>(n));
-        levelPlans_.resize(static_cast<std::size_t>(n));
+        std::size_t levels = u(n); // level 0 of tile t is level t; its levels 1..k follow all the tiles' level 0
+        firstLevel_.resize(u(n));
         for (int t = 0; t < n; ++t) {
-            // Levels 0..k-1, plus a virtual level of size 1 (see sourceLevelAt).
-            for (int m = 0; m <= k_[u(t)]; ++m) data_[u(t)].emplace_back(levelTexels(size(t, m)), 0.0);
-            fit_[u(t)].assign(levelTexels(size(t, 0)), 0.0);
-            levelPlans_[u(t)].resize(u(k_[u(t)]));
+            firstLevel_[u(t)] = levels - 1;
+            levels += u(k_[u(t)]);
         }
+        levelOffset_.resize(levels);
+        ringFirst_.resize(levels);
+        std::size_t texels = 0, ring = 0;
+        for (int m = 0; m <= kMaxTileLog2; ++m)
+            for (int t = 0; t < n; ++t) {
+                if (m > k_[u(t)]) continue;
+                levelOffset_[levelIndex(t, m)] = texels;
+                texels += levelTexels(size(t, m));
+                ringFirst_[levelIndex(t, m)] = ring;
+                if (m < k_[u(t)]) ring += u(4 * size(t, m));
+            }
+        pool_.assign(texels, 0.0);
+        ringSource_.assign(ring, nullptr);
+        levelPlans_.resize(levels);
+        raw_.assign(u(4 * n), 0.0);
         diagonal_.resize(static_cast<std::size_t>(n));
         for (int t = 0; t < n; ++t)
             for (int c = 0; c < 4; ++c) findDiagonal(t, c, diagonal_[u(t)][u(c)][0], diagonal_[u(t)][u(c)][1]);
     }
-    // levelPlans_ points into data_: a copy would point into the original.
+    // The plans point into pool_: a copy would point into the original.
     TileBuild(const TileBuild&) = delete;
     TileBuild& operator=(const TileBuild&) = delete;
 
@@ -202,8 +222,20 @@ class TileBuild {
         const int m = sourceLevelAt(t, g);
         return m < k_[u(t)] ? m : -1;
     }
-    double& at(int t, int m, int a, int b) { return data_[u(t)][u(m)][u(b * (size(t, m) + 2) + a)]; }
-    double& fitAt(int t, int a, int b) { return fit_[u(t)][u(b * (size(t, 0) + 2) + a)]; }
+    std::size_t levelIndex(int t, int m) const { return m == 0 ? u(t) : firstLevel_[u(t)] + u(m); }
+    double* levelData(int t, int m) { return pool_.data() + levelOffset_[levelIndex(t, m)]; }
+    const double* levelData(int t, int m) const { return pool_.data() + levelOffset_[levelIndex(t, m)]; }
+    double& at(int t, int m, int a, int b) { return levelData(t, m)[u(b * (size(t, m) + 2) + a)]; }
+    /// The fit's value at corner c of tile t: what the solve gave there (the level-0 texel
+    /// holds the corner constraint's average where the corner is constrained).
+    double& fitCorner(int t, int c) { return raw_[u(4 * t + (c & 3))]; }
+    /// The fit's starting point: tile t's samples (row j = v, s x s) as its level-0 interior.
+    void setInterior(int t, const std::vector<double>& y) {
+        const int s = size(t, 0);
+        for (int j = 0; j < s; ++j)
+            for (int i = 0; i < s; ++i) at(t, 0, i + 1, j + 1) = y[u(j * s + i)];
+        for (int c = 0; c < 4; ++c) fitCorner(t, c) = cornerInterior(t, 0, c);
+    }
     /// Texel (t along edge e from corner e, d inward from the ring) of a level of size s.
     static glm::ivec2 edgeTexel(int e, int t, int d, int s) {
         switch (e & 3) {
@@ -280,29 +312,19 @@ class TileBuild {
                 const int t = sch.virtualLevels[i];
                 filterLevel(t, k_[u(t)], filter);
             });
+            // Level 0's interior is the fit's (solveTile writes it); the levels above are mips.
             par.each(active.size(), 16, [&](std::size_t i) {
                 const auto [t, m] = active[i];
-                if (m == 0) {
-                    const int s = size(t, 0);
-                    for (int b = 1; b <= s; ++b)
-                        for (int a = 1; a <= s; ++a) at(t, 0, a, b) = fitAt(t, a, b);
-                } else {
-                    filterLevel(t, m, filter);
-                }
+                if (m > 0) filterLevel(t, m, filter);
             });
-            // Each constrained vertex averages and writes its own incident corners.
-            par.each(constrained_.size(), 256, [&](std::size_t i) {
-                const int v = constrained_[i];
+            // Each constrained vertex averages and writes its own incident corners (level 0's
+            // from the fit's corner values, not from an earlier average).
+            par.each(sch.averageFirst.size() - 1, 256, [&](std::size_t i) {
+                const std::size_t begin = sch.averageFirst[i], end = sch.averageFirst[i + 1];
                 double sum = 0.0;
-                int count = 0;
-                for (auto [t, c] : topo_.incidences(v))
-                    if (int m = levelAt(t, g); m >= 0) {
-                        sum += cornerInterior(t, m, c);
-                        ++count;
-                    }
-                if (count == 0) return;
-                for (auto [t, c] : topo_.incidences(v))
-                    if (int m = levelAt(t, g); m >= 0) cornerInterior(t, m, c) = sum / count;
+                for (std::size_t j = begin; j < end; ++j) sum += *sch.averageFrom[j];
+                const double mean = sum / static_cast<int>(end - begin);
+                for (std::size_t j = begin; j < end; ++j) *sch.averageTo[j] = mean;
             });
             par.each(active.size(), 16, [&](std::size_t i) { fillEdgeRings(active[i].first, active[i].second, g); });
             // Each tile's corners in order (a corner's extrapolation reads ring texels its tile's
@@ -318,6 +340,13 @@ class TileBuild {
     struct Schedule {
         std::vector<std::pair<int, int>> active;
         std::vector<int> virtualLevels;
+        /// The corner constraints at this resolution: constrained vertex i (those with a level
+        /// here, in vertex order) averages *averageFrom[averageFirst[i] .. averageFirst[i + 1])
+        /// (level 0: the fit's corner values; above: the mips' corner texels) into the texels
+        /// *averageTo[...], its incident tiles' interior corners (in incidence order).
+        std::vector<std::size_t> averageFirst{0};
+        std::vector<const double*> averageFrom;
+        std::vector<double*> averageTo;
     };
     void prepareSchedule() {
         if (!schedule_.empty()) return;
@@ -338,8 +367,18 @@ class TileBuild {
                 if (int m = sourceLevelAt(t, g); m == k_[u(t)]) sch.virtualLevels.push_back(t);
             }
         }
-        for (int v = 0; v < topo_.vertexCount(); ++v)
-            if (topo_.kind(v) == TileTopology::VertexKind::Constrained) constrained_.push_back(v);
+        for (int g = gmax_; g >= gmin_; --g) {
+            Schedule& sch = schedule_[u(gmax_ - g)];
+            for (int v = 0; v < topo_.vertexCount(); ++v) {
+                if (topo_.kind(v) != TileTopology::VertexKind::Constrained) continue;
+                for (auto [t, c] : topo_.incidences(v))
+                    if (int m = levelAt(t, g); m >= 0) {
+                        sch.averageFrom.push_back(m == 0 ? &fitCorner(t, c) : &cornerInterior(t, m, c));
+                        sch.averageTo.push_back(&cornerInterior(t, m, c));
+                    }
+                if (sch.averageFrom.size() > sch.averageFirst.back()) sch.averageFirst.push_back(sch.averageFrom.size());
+            }
+        }
     }
 
     void fillEdgeRings(int t, int m, int g) {
@@ -347,26 +386,27 @@ class TileBuild {
         // Which neighbour texel each ring texel copies depends on the topology and the sizes
         // only: found on the first call for (t, m), kept for the sweeps after it (the lookups
         // cost more than the copies on small tiles). Each (t, m) is one task's alone.
-        LevelPlan& plan = levelPlans_[u(t)][u(m)];
-        if (plan.source.empty()) {
-            plan.source.assign(u(4 * s), nullptr);
+        LevelPlan& plan = levelPlans_[levelIndex(t, m)];
+        const double** const sources = ringSource_.data() + ringFirst_[levelIndex(t, m)];
+        if (!plan.ringsPlanned) {
+            plan.ringsPlanned = true;
             for (int e = 0; e < 4; ++e) {
                 plan.matched[u(e)] = true;
                 for (int along = 1; along <= s; ++along) {
                     const TileTopology::Link* l = topo_.linkAt(t, e, (along - 0.5) / s);
                     const double* p = l ? linkedSource(*l, t, m, along) : nullptr;
-                    plan.source[u(e * s + along - 1)] = p;
+                    sources[e * s + along - 1] = p;
                     if (!p) plan.matched[u(e)] = false;
                 }
             }
         }
         const std::array<bool, 4>& matched = plan.matched;
-        double* level = data_[u(t)][u(m)].data();
+        double* level = levelData(t, m);
         for (int e = 0; e < 4; ++e) {
             // edgeAt(t, m, e, along, d) is level[base + along * step + d * inward].
             const std::ptrdiff_t base = texelIndex(edgeTexel(e, 0, 0, s), s);
             const std::ptrdiff_t step = texelIndex(edgeTexel(e, 1, 0, s), s) - base, inward = texelIndex(edgeTexel(e, 0, 1, s), s) - base;
-            const double* const* source = plan.source.data() + e * s;
+            const double* const* source = sources + e * s;
             for (int along = 1; along <= s; ++along) {
                 const std::ptrdiff_t i = base + along * step;
                 const double* p = source[along - 1];
@@ -474,7 +514,7 @@ class TileBuild {
         return p;
     }
     void fillCorner(int t, int m, int c, int g) {
-        CornerPlan& p = levelPlans_[u(t)][u(m)].corner[u(c)];
+        CornerPlan& p = levelPlans_[levelIndex(t, m)].corner[u(c)];
         if (p.mode == CornerPlan::Unplanned) p = planCorner(t, m, c, g);
         double value = 0.0;
         switch (p.mode) {
@@ -513,7 +553,7 @@ class TileBuild {
     double solveTile(const std::vector<std::vector<double>>& samples, int t, std::vector<double>& rhs, std::vector<double>& scratch) {
         const int s = size(t, 0);
         const int w = s + 2;
-        const std::vector<double>& d = data_[u(t)][0];
+        const double* d = levelData(t, 0);
         const std::vector<double>& y = samples[u(t)];
         const Thomas& th = thomas_[u(k_[u(t)])];
         rhs.resize(u(s * s));
@@ -542,12 +582,22 @@ class TileBuild {
         for (int j = 0; j < s; ++j)
             for (int i = 0; i < s; ++i) scratch[u(i * s + j)] = rhs[u(j * s + i)];
         tridiagonalLines(scratch.data(), s, th);
+        // Into level 0's interior; the corners' previous fit values are kept aside (the
+        // constraint may have overwritten the texels), and so are the new ones.
         double change = 0.0;
+        double corner[4];
+        for (int c = 0; c < 4; ++c) corner[c] = fitCorner(t, c);
+        for (int c = 0; c < 4; ++c) {
+            const glm::ivec2 p = edgeTexel(c, 1, 1, s);
+            fitCorner(t, c) = scratch[u((p.x - 1) * s + p.y - 1)];
+        }
         for (int j = 0; j < s; ++j)
             for (int i = 0; i < s; ++i) {
-                double& x = fitAt(t, i + 1, j + 1);
+                double& x = at(t, 0, i + 1, j + 1);
+                const bool atCorner = (i == 0 || i == s - 1) && (j == 0 || j == s - 1);
+                const double before = atCorner ? corner[(i == 0 ? (j == 0 ? 0 : 3) : (j == 0 ? 1 : 2))] : x;
                 const double solved = scratch[u(i * s + j)];
-                change = std::max(change, std::abs(solved - x));
+                change = std::max(change, std::abs(solved - before));
                 x = solved;
             }
         return change;
@@ -591,24 +641,30 @@ class TileBuild {
         }
     }
 
-    const std::vector<std::vector<double>>& level(int t) const { return data_[u(t)]; }
+    /// Level m of tile t: (s + 2)^2 texels, row b = v.
+    const double* level(int t, int m) const { return levelData(t, m); }
 
   private:
     const TileTopology& topo_;
     std::vector<int> k_;
-    std::vector<std::vector<std::vector<double>>> data_;
-    /// Per tile and level: the neighbour texel each ring texel copies (fillEdgeRings; edge e,
-    /// texel along at [e s + along - 1], nullptr where it extrapolates) and the corners' plans.
+    std::vector<double> pool_;              ///< every level of every tile (see the class comment)
+    std::vector<std::size_t> firstLevel_;   ///< per tile: its level m > 0 is level firstLevel_ + m (level 0 is level t)
+    std::vector<std::size_t> levelOffset_;  ///< per level (levelIndex): where its texels start in pool_
+    std::vector<std::size_t> ringFirst_;    ///< per level: where its 4 s ring sources start in ringSource_
+    /// Per level: the neighbour texel each ring texel copies (fillEdgeRings; edge e, texel
+    /// along at [e s + along - 1], nullptr where it extrapolates).
+    std::vector<const double*> ringSource_;
+    std::vector<double> raw_;               ///< per tile, per corner: the fit's value (fitCorner)
+    /// Per level: whether its ring sources are planned, which edges copy a neighbour all
+    /// along, and the corners' plans.
     struct LevelPlan {
-        std::vector<const double*> source;
+        bool ringsPlanned = false;
         std::array<bool, 4> matched{};
         std::array<CornerPlan, 4> corner{};
     };
-    std::vector<std::vector<LevelPlan>> levelPlans_;
+    std::vector<LevelPlan> levelPlans_;
     std::vector<std::array<std::array<int, 2>, 4>> diagonal_; ///< (tile, corner) across each corner, or -1
-    std::vector<std::vector<double>> fit_;
     std::vector<Schedule> schedule_;
-    std::vector<int> constrained_;
     int gmax_ = 0, gmin_ = 0, gLevel0Min_ = 0;
     std::vector<Thomas> thomas_;
     std::vector<double> changes_;
@@ -728,11 +784,7 @@ inline TileFitter::TileFitter(const ControlMesh& mesh, const std::vector<int>& k
     sample(all, source, samples_);
 
     build_ = std::make_unique<detail::TileBuild>(topo, k);
-    Parallel(options_.threads).each(static_cast<std::size_t>(n), 64, [&](std::size_t t) {
-        const int s = 1 << k[t];
-        for (int j = 0; j < s; ++j)
-            for (int i = 0; i < s; ++i) build_->fitAt(static_cast<int>(t), i + 1, j + 1) = samples_[t][static_cast<std::size_t>(j * s + i)];
-    });
+    Parallel(options_.threads).each(static_cast<std::size_t>(n), 64, [&](std::size_t t) { build_->setInterior(static_cast<int>(t), samples_[t]); });
     solve(all);
     tiles_->filter = options.filter;
     tiles_->topologyHash = topologyHash(mesh);
@@ -807,7 +859,8 @@ inline void TileFitter::store(std::vector<int>* changed) {
                 kt + topo.scale(t) - gmin_[static_cast<std::size_t>(topo.cornerVertex(t, c))]);
         tile.coefficients.reserve(Tile::totalTexels(kt));
         for (int m = 0; m < kt; ++m)
-            for (double x : b.level(t)[static_cast<std::size_t>(m)]) tile.coefficients.push_back(static_cast<float>(x));
+            for (std::size_t i = 0, count = levelTexels((1 << kt) >> m); i < count; ++i)
+                tile.coefficients.push_back(static_cast<float>(b.level(t, m)[i]));
         Tile& stored = tiles_->tiles[tu];
         if (!changed || stored.coefficients != tile.coefficients) {
             differs[tu] = 1;
@@ -815,7 +868,7 @@ inline void TileFitter::store(std::vector<int>* changed) {
         }
         // Interpolation residual at the samples, on the double coefficients.
         const int s = 1 << kt;
-        const std::vector<double>& c0 = b.level(t)[0];
+        const double* c0 = b.level(t, 0);
         bool constrainedCorner[4];
         for (int c = 0; c < 4; ++c) constrainedCorner[c] = topo.kind(topo.cornerVertex(t, c)) == TileTopology::VertexKind::Constrained;
         glm::dvec2 r2(0.0);
