@@ -6,11 +6,18 @@
 // sum_ab w_a w_b c_(i+a, j+b) with w = (1, 6, 1)/8. Interpolating all samples of all tiles
 // at once is one sparse, strictly diagonally dominant system whose unknowns are the tiles'
 // interior coefficients; the overlap ring of each tile is not an unknown, it is a copy of
-// the neighbours' coefficients (or the boundary rule). We solve it by block Gauss-Jacobi
-// sweeps: with the rings of the current iterate fixed, each tile's (T x T) x = rhs system
-// (T = tridiag(1, 6, 1)/8) is solved exactly by two passes of the Thomas algorithm; then the
-// rings are refreshed. A ring error decays by about 0.17 per coefficient into a tile, so
-// about 20 sweeps reach double precision on a mesh of quads; the report says how many ran.
+// the neighbours' coefficients (or the boundary rule). We solve it by block sweeps: with its
+// ring fixed, a tile's (T x T) x = rhs system (T = tridiag(1, 6, 1)/8) is solved exactly by two
+// passes of the Thomas algorithm. Where every tile's finest level has one resolution and 8 x 8
+// texels or more, a sweep is block Gauss-Seidel over colours: the tiles are coloured so that no
+// two of a colour share a vertex or an edge, and each colour's tiles get their rings from the
+// latest iterate and are solved (in parallel: they read and write nothing of each other's).
+// Otherwise (mixed resolutions, whose coarser levels are mips of finer ones; small tiles, where
+// visiting the tiles colour by colour costs more memory traffic than the sweeps it saves) a
+// sweep is block Gauss-Jacobi: every ring refreshed, then every tile solved. Ring texels a tile
+// extrapolates from itself are damped during the sweeps (TileBuild::kDamp). Jacobi's error
+// shrinks about 0.37x a sweep, Gauss-Seidel's about 0.15x: 11-30 sweeps reach double precision
+// on the OpenSubdiv shapes; the report says how many ran.
 // On data that is itself a biquadratic spline over the mesh the fit returns its coefficients.
 //
 // Rules for the overlap ring (every level, every tile), in this order:
@@ -167,8 +174,8 @@ namespace detail {
 ///
 /// Memory: the sweeps of a large set are bound by memory, not arithmetic (a tile of 4 x 4 has
 /// 16 unknowns and reads 20 ring texels of other tiles), so the state is kept compact and in
-/// the order the sweeps walk it: one array holds every tile's level 0 in tile order, then every
-/// tile's level 1, and so on (levels 0..k-1 and the virtual level k of size 1, see
+/// the order the sweeps walk it: one array holds every tile's level 0 (in tile order, or colour
+/// by colour where the sweeps are Gauss-Seidel), then every tile's level 1, and so on (levels 0..k-1 and the virtual level k of size 1, see
 /// sourceLevelAt); the fit solves straight into level 0's interior, keeping aside only the
 /// four corner texels it solved (which the corner constraint overwrites there); the ring plans
 /// are flat arrays.
@@ -176,7 +183,39 @@ class TileBuild {
   public:
     TileBuild(const TileTopology& topo, std::vector<int> k) : topo_(topo), k_(std::move(k)) {
         const int n = topo.tileCount();
-        std::size_t levels = u(n); // level 0 of tile t is level t; its levels 1..k follow all the tiles' level 0
+        // Level 0 of tile t is level rank_[t]: tile order, or where the sweeps run in
+        // Gauss-Seidel order, colour by colour (greedy colouring in tile order: the smallest
+        // colour no earlier tile sharing a vertex or an edge link has). The tiles' levels 1..k
+        // follow all the level 0s, in tile order.
+        colourOf_.assign(u(n), 0);
+        rank_.resize(u(n));
+        // Gauss-Seidel where every level 0 has one resolution and 8 x 8 texels or more: it needs
+        // about half the sweeps, but visits the tiles colour by colour, which on small tiles
+        // costs more in memory traffic than the sweeps it saves (figures.md, "Production-size
+        // cages": on the bunny's 4 x 4 tiles 1.2x slower, on 8 x 8 and larger 1.2-1.8x faster).
+        bool uniform = true;
+        for (int t = 0; t < n; ++t) uniform = uniform && global(t, 0) == global(0, 0) && k_[u(t)] >= 3;
+        std::vector<int> order(u(n));
+        for (int t = 0; t < n; ++t) order[u(t)] = t;
+        if (uniform) {
+            std::vector<char> used;
+            int colours = 0;
+            for (int t = 0; t < n; ++t) {
+                used.assign(u(colours + 1), 0);
+                for (int c = 0; c < 4; ++c) {
+                    for (auto [ot, oc] : topo_.incidences(topo_.cornerVertex(t, c)))
+                        if (ot < t) used[u(colourOf_[u(ot)])] = 1;
+                    for (const TileTopology::Link& l : topo_.links(t, c))
+                        if (l.tile < t) used[u(colourOf_[u(l.tile)])] = 1;
+                }
+                colourOf_[u(t)] = static_cast<int>(std::find(used.begin(), used.end(), 0) - used.begin());
+                colours = std::max(colours, colourOf_[u(t)] + 1);
+            }
+            std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return colourOf_[u(a)] < colourOf_[u(b)]; });
+        }
+        seidel_ = uniform;
+        for (int i = 0; i < n; ++i) rank_[u(order[u(i)])] = u(i);
+        std::size_t levels = u(n);
         firstLevel_.resize(u(n));
         for (int t = 0; t < n; ++t) {
             firstLevel_[u(t)] = levels - 1;
@@ -186,7 +225,8 @@ class TileBuild {
         ringFirst_.resize(levels);
         std::size_t texels = 0, ring = 0;
         for (int m = 0; m <= kMaxTileLog2; ++m)
-            for (int t = 0; t < n; ++t) {
+            for (int i = 0; i < n; ++i) {
+                const int t = m == 0 ? order[u(i)] : i;
                 if (m > k_[u(t)]) continue;
                 levelOffset_[levelIndex(t, m)] = texels;
                 texels += levelTexels(size(t, m));
@@ -206,6 +246,16 @@ class TileBuild {
     TileBuild& operator=(const TileBuild&) = delete;
 
     static std::size_t u(int i) { return static_cast<std::size_t>(i); }
+    /// During the sweeps a ring texel that a tile extrapolates from its own interior (a boundary
+    /// edge, a corner extrapolated along an edge) moves 2/3 of the way to its new value. Taken
+    /// whole, that lagged self-coupling has an eigenvalue near -1 at a mesh corner (a vertex
+    /// with one tile: the corner sample reads 28/64 of its own coefficient back through three
+    /// extrapolated ring texels), so the sweeps oscillated there and ran out (100 sweeps at a
+    /// change of ~1e-9 on 132 of 240 builds of meshes with boundaries, mixed sizes or
+    /// discontinuous data). The fixed point is the same (the ring equals the extrapolation); the
+    /// last finalize writes the rule undamped. 2/3 took the fewest sweeps over those builds
+    /// (figures.md, "Production-size cages").
+    static constexpr double kDamp = 2.0 / 3.0;
     int size(int t, int m) const { return (1 << k_[u(t)]) >> m; }
     /// The global resolution of level m: log2 of its texels per base edge.
     int global(int t, int m) const { return k_[u(t)] - m + topo_.scale(t); }
@@ -222,13 +272,13 @@ class TileBuild {
         const int m = sourceLevelAt(t, g);
         return m < k_[u(t)] ? m : -1;
     }
-    std::size_t levelIndex(int t, int m) const { return m == 0 ? u(t) : firstLevel_[u(t)] + u(m); }
+    std::size_t levelIndex(int t, int m) const { return m == 0 ? rank_[u(t)] : firstLevel_[u(t)] + u(m); }
     double* levelData(int t, int m) { return pool_.data() + levelOffset_[levelIndex(t, m)]; }
     const double* levelData(int t, int m) const { return pool_.data() + levelOffset_[levelIndex(t, m)]; }
     double& at(int t, int m, int a, int b) { return levelData(t, m)[u(b * (size(t, m) + 2) + a)]; }
     /// The fit's value at corner c of tile t: what the solve gave there (the level-0 texel
     /// holds the corner constraint's average where the corner is constrained).
-    double& fitCorner(int t, int c) { return raw_[u(4 * t + (c & 3))]; }
+    double& fitCorner(int t, int c) { return raw_[4 * rank_[u(t)] + u(c & 3)]; }
     /// The fit's starting point: tile t's samples (row j = v, s x s) as its level-0 interior.
     void setInterior(int t, const std::vector<double>& y) {
         const int s = size(t, 0);
@@ -326,11 +376,11 @@ class TileBuild {
                 const double mean = sum / static_cast<int>(end - begin);
                 for (std::size_t j = begin; j < end; ++j) *sch.averageTo[j] = mean;
             });
-            par.each(active.size(), 16, [&](std::size_t i) { fillEdgeRings(active[i].first, active[i].second, g); });
+            par.each(active.size(), 16, [&](std::size_t i) { fillEdgeRings(active[i].first, active[i].second, g, !all); });
             // Each tile's corners in order (a corner's extrapolation reads ring texels its tile's
             // constrained corners rewrite); the reads across tiles are interior texels only.
             par.each(active.size(), 16, [&](std::size_t i) {
-                for (int c = 0; c < 4; ++c) fillCorner(active[i].first, active[i].second, c, g);
+                for (int c = 0; c < 4; ++c) fillCorner(active[i].first, active[i].second, c, g, !all);
             });
         }
     }
@@ -381,7 +431,7 @@ class TileBuild {
         }
     }
 
-    void fillEdgeRings(int t, int m, int g) {
+    void fillEdgeRings(int t, int m, int g, bool damp = false) {
         const int s = size(t, m);
         // Which neighbour texel each ring texel copies depends on the topology and the sizes
         // only: found on the first call for (t, m), kept for the sweeps after it (the lookups
@@ -410,7 +460,12 @@ class TileBuild {
             for (int along = 1; along <= s; ++along) {
                 const std::ptrdiff_t i = base + along * step;
                 const double* p = source[along - 1];
-                level[i] = p ? *p : 2.0 * level[i + inward] - level[i + 2 * inward];
+                if (p) {
+                    level[i] = *p;
+                } else {
+                    const double x = 2.0 * level[i + inward] - level[i + 2 * inward];
+                    level[i] = damp ? level[i] + kDamp * (x - level[i]) : x;
+                }
             }
         }
         // An unmatched ring entry next to a regular vertex lies in the quadrant of a tile C
@@ -513,7 +568,7 @@ class TileBuild {
         }
         return p;
     }
-    void fillCorner(int t, int m, int c, int g) {
+    void fillCorner(int t, int m, int c, int g, bool damp = false) {
         CornerPlan& p = levelPlans_[levelIndex(t, m)].corner[u(c)];
         if (p.mode == CornerPlan::Unplanned) p = planCorner(t, m, c, g);
         double value = 0.0;
@@ -525,10 +580,77 @@ class TileBuild {
             break;
         case CornerPlan::Copy: value = *p.a; break;
         case CornerPlan::Parallelogram: value = *p.a + *p.b - *p.c; break;
-        case CornerPlan::Extrapolate: value = 2.0 * *p.a - *p.b; break;
+        case CornerPlan::Extrapolate:
+            value = 2.0 * *p.a - *p.b;
+            if (damp) value = cornerRing(t, m, c) + kDamp * (value - cornerRing(t, m, c));
+            break;
         case CornerPlan::Unplanned: break;
         }
         cornerRing(t, m, c) = value;
+    }
+
+    /// Whether the fit sweeps in Gauss-Seidel order: every tile's finest level has the same
+    /// resolution, so a sweep reads and writes level 0 only (no mip feeds a ring), and 8 x 8
+    /// texels or more (see the constructor).
+    bool seidel() const { return seidel_; }
+    /// A Gauss-Seidel sweep's colours over `tiles`: the tiles of each colour (tiles of one colour
+    /// share no vertex and no edge, so they neither read each other's texels nor write the same
+    /// corner average) and its constrained vertices' corners: vertex i averages the fit's corner
+    /// values *from[first[i] .. first[i + 1]) into the level-0 texels *to[...]. The colouring is
+    /// the constructor's (greedy in tile order), restricted to `tiles`.
+    struct Colour {
+        std::vector<int> tiles;
+        std::vector<std::size_t> first{0};
+        std::vector<const double*> from;
+        std::vector<double*> to;
+    };
+    std::vector<Colour> colours(const std::vector<int>& tiles) {
+        prepareSchedule();
+        std::vector<Colour> out;
+        std::vector<char> in(u(topo_.tileCount()), 0);
+        for (int t : tiles) {
+            const std::size_t c = u(colourOf_[u(t)]);
+            if (out.size() <= c) out.resize(c + 1);
+            out[c].tiles.push_back(t);
+            in[u(t)] = 1;
+        }
+        std::vector<int> listed(out.size(), -1);
+        for (int v = 0; v < topo_.vertexCount(); ++v) {
+            if (topo_.kind(v) != TileTopology::VertexKind::Constrained) continue;
+            for (auto [t, c] : topo_.incidences(v)) {
+                if (!in[u(t)] || listed[u(colourOf_[u(t)])] == v) continue;
+                listed[u(colourOf_[u(t)])] = v; // once per colour (two tiles of a colour never share v)
+                Colour& cl = out[u(colourOf_[u(t)])];
+                for (auto [vt, vc] : topo_.incidences(v)) {
+                    cl.from.push_back(&fitCorner(vt, vc));
+                    cl.to.push_back(&cornerInterior(vt, 0, vc));
+                }
+                cl.first.push_back(cl.from.size());
+            }
+        }
+        return out;
+    }
+    /// One Gauss-Seidel sweep (seidel() only). Per colour: the averages at its constrained
+    /// vertices from the latest fit, its tiles' rings, then its tiles solved. Returns the
+    /// largest change.
+    double solveSweepColoured(const std::vector<std::vector<double>>& samples, const std::vector<Colour>& colours, const Parallel& par) {
+        double change = 0.0;
+        for (const Colour& colour : colours) {
+            par.each(colour.first.size() - 1, 256, [&](std::size_t i) {
+                const std::size_t begin = colour.first[i], end = colour.first[i + 1];
+                double sum = 0.0;
+                for (std::size_t j = begin; j < end; ++j) sum += *colour.from[j];
+                const double mean = sum / static_cast<int>(end - begin);
+                for (std::size_t j = begin; j < end; ++j) *colour.to[j] = mean;
+            });
+            par.each(colour.tiles.size(), 16, [&](std::size_t i) {
+                const int t = colour.tiles[i];
+                fillEdgeRings(t, 0, gmax_, true);
+                for (int c = 0; c < 4; ++c) fillCorner(t, 0, c, gmax_, true);
+            });
+            change = std::max(change, solveSweep(samples, colour.tiles, par));
+        }
+        return change;
     }
 
     /// One sweep of the fit: each tile of `tiles` has its interior solved exactly with the
@@ -648,13 +770,16 @@ class TileBuild {
     const TileTopology& topo_;
     std::vector<int> k_;
     std::vector<double> pool_;              ///< every level of every tile (see the class comment)
-    std::vector<std::size_t> firstLevel_;   ///< per tile: its level m > 0 is level firstLevel_ + m (level 0 is level t)
+    std::vector<std::size_t> firstLevel_;   ///< per tile: its level m > 0 is level firstLevel_ + m
+    std::vector<std::size_t> rank_;         ///< per tile: its level 0 is level rank_ (tile order, or colour by colour)
+    std::vector<int> colourOf_;             ///< per tile: its colour in the Gauss-Seidel order (0 when not seidel_)
+    bool seidel_ = false;                   ///< sweeps in Gauss-Seidel order (seidel())
     std::vector<std::size_t> levelOffset_;  ///< per level (levelIndex): where its texels start in pool_
     std::vector<std::size_t> ringFirst_;    ///< per level: where its 4 s ring sources start in ringSource_
     /// Per level: the neighbour texel each ring texel copies (fillEdgeRings; edge e, texel
     /// along at [e s + along - 1], nullptr where it extrapolates).
     std::vector<const double*> ringSource_;
-    std::vector<double> raw_;               ///< per tile, per corner: the fit's value (fitCorner)
+    std::vector<double> raw_;               ///< per level 0, per corner: the fit's value (fitCorner)
     /// Per level: whether its ring sources are planned, which edges copy a neighbour all
     /// along, and the corners' plans.
     struct LevelPlan {
@@ -832,9 +957,15 @@ inline void TileFitter::solve(const std::vector<int>& tiles) {
         for (double d : y) maxAbs = std::max(maxAbs, std::abs(d));
     BuildReport& rep = report_;
     const Parallel par(options_.threads);
+    std::vector<detail::TileBuild::Colour> colours;
+    if (build_->seidel()) colours = build_->colours(tiles);
     for (rep.sweeps = 1; rep.sweeps <= options_.maxSweeps; ++rep.sweeps) {
-        build_->finalize(options_.filter, par, false);
-        rep.lastChange = build_->solveSweep(samples_, tiles, par);
+        if (build_->seidel()) {
+            rep.lastChange = build_->solveSweepColoured(samples_, colours, par);
+        } else {
+            build_->finalize(options_.filter, par, false);
+            rep.lastChange = build_->solveSweep(samples_, tiles, par);
+        }
         if (rep.lastChange <= options_.tolerance * (1.0 + maxAbs)) break;
     }
     rep.sweeps = std::min(rep.sweeps, options_.maxSweeps);
