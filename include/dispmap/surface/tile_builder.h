@@ -14,10 +14,10 @@
 // latest iterate and are solved (in parallel: they read and write nothing of each other's).
 // Otherwise (mixed resolutions, whose coarser levels are mips of finer ones; small tiles, where
 // visiting the tiles colour by colour costs more memory traffic than the sweeps it saves) a
-// sweep is block Gauss-Jacobi: every ring refreshed, then every tile solved. Ring texels a tile
-// extrapolates from itself are damped during the sweeps (TileBuild::kDamp). Jacobi's error
-// shrinks about 0.37x a sweep, Gauss-Seidel's about 0.15x: 11-30 sweeps reach double precision
-// on the OpenSubdiv shapes; the report says how many ran.
+// sweep is block Gauss-Jacobi: every ring refreshed, then every tile solved. Extrapolated ring
+// texels are damped during the sweeps (TileBuild::kDamp). Jacobi's error shrinks about 0.37x a
+// sweep, Gauss-Seidel's about 0.15x: on the OpenSubdiv shapes at most 31 sweeps reach double
+// precision (k = 1..5 and mixed sizes); the report says how many ran.
 // On data that is itself a biquadratic spline over the mesh the fit returns its coefficients.
 //
 // Rules for the overlap ring (every level, every tile), in this order:
@@ -67,7 +67,7 @@ inline DisplacementFunction FunctionSource(DisplacementFunction f) { return f; }
 
 struct BuildOptions {
     MipFilter filter = MipFilter::Haar;
-    int maxSweeps = 100;     ///< block Gauss-Jacobi sweeps of the interpolating fit at most
+    int maxSweeps = 100;     ///< sweeps of the interpolating fit at most (at most 31 reach the tolerance on the OpenSubdiv shapes)
     double tolerance = 1e-13; ///< stop when no coefficient moves more than this x (1 + max |sample|)
     /// Threads for sampling, fit and mips (core/parallel.h: 0 all cores, 1 the calling thread).
     /// The tiles are the same bit for bit for every count. With more than one thread the
@@ -246,15 +246,17 @@ class TileBuild {
     TileBuild& operator=(const TileBuild&) = delete;
 
     static std::size_t u(int i) { return static_cast<std::size_t>(i); }
-    /// During the sweeps a ring texel that a tile extrapolates from its own interior (a boundary
-    /// edge, a corner extrapolated along an edge) moves 2/3 of the way to its new value. Taken
-    /// whole, that lagged self-coupling has an eigenvalue near -1 at a mesh corner (a vertex
-    /// with one tile: the corner sample reads 28/64 of its own coefficient back through three
-    /// extrapolated ring texels), so the sweeps oscillated there and ran out (100 sweeps at a
-    /// change of ~1e-9 on 132 of 240 builds of meshes with boundaries, mixed sizes or
-    /// discontinuous data). The fixed point is the same (the ring equals the extrapolation); the
-    /// last finalize writes the rule undamped. 2/3 took the fewest sweeps over those builds
-    /// (figures.md, "Production-size cages").
+    /// In the sweeps after the first, an extrapolated ring texel (a boundary edge or a missing
+    /// level extrapolated from the tile's own rows, a corner extrapolated along an edge) moves
+    /// 2/3 of the way to its new value. Taken whole, the lagged self-coupling has an eigenvalue
+    /// near or beyond -1 at a mesh corner (a vertex with one tile: the corner sample reads 28/64
+    /// of its own coefficient back through three extrapolated ring texels), so the sweeps
+    /// oscillated there and ran out: 100 sweeps at a change of ~1e-9 on 132 of 240 builds of
+    /// the OpenSubdiv shapes at k = 3..5 (boundaries, mixed sizes), and a divergence to changes
+    /// of 1e7 at k = 1 on some boundary meshes. The fixed point is the same (the ring equals the
+    /// extrapolation), and the last finalize writes the rule undamped. 2/3 took the fewest
+    /// sweeps of 0.4-0.8 over those builds (figures.md, "Production-size cages"). The first
+    /// sweep is not damped: the rings start at zero.
     static constexpr double kDamp = 2.0 / 3.0;
     int size(int t, int m) const { return (1 << k_[u(t)]) >> m; }
     /// The global resolution of level m: log2 of its texels per base edge.
@@ -347,12 +349,13 @@ class TileBuild {
     /// Computes the levels of every tile from the fitted finest interiors: interiors (fit or
     /// mip filter), the corner constraint, then edge and corner rings, resolution by resolution
     /// from the finest. `all` = false stops after the coarsest resolution any tile's level 0 has
-    /// (what the fit's sweeps read: a resolution reads only data of its own resolution, so the
-    /// levels it computes are those all = true computes). Each phase runs over tiles (or
-    /// vertices) in parallel; every task writes only its own tile's level (or its vertex's
-    /// corners) and reads what earlier phases wrote, so the result is the same on any number
-    /// of threads.
-    void finalize(MipFilter filter, const Parallel& par, bool all = true) {
+    /// (what the fit's sweeps read: a resolution reads only data of its own resolution). With
+    /// `damp` (the sweeps after the first) the rings a tile extrapolates move kDamp of the way
+    /// (see kDamp); without it the levels computed are those all = true computes. Each phase
+    /// runs over tiles (or vertices) in parallel; every task writes only its own tile's level
+    /// (or its vertex's corners) and reads what earlier phases wrote, so the result is the same
+    /// on any number of threads.
+    void finalize(MipFilter filter, const Parallel& par, bool all = true, bool damp = false) {
         prepareSchedule();
         const int gStop = all ? gmin_ : gLevel0Min_;
         for (int g = gmax_; g >= gStop; --g) {
@@ -369,34 +372,45 @@ class TileBuild {
             });
             // Each constrained vertex averages and writes its own incident corners (level 0's
             // from the fit's corner values, not from an earlier average).
-            par.each(sch.averageFirst.size() - 1, 256, [&](std::size_t i) {
-                const std::size_t begin = sch.averageFirst[i], end = sch.averageFirst[i + 1];
-                double sum = 0.0;
-                for (std::size_t j = begin; j < end; ++j) sum += *sch.averageFrom[j];
-                const double mean = sum / static_cast<int>(end - begin);
-                for (std::size_t j = begin; j < end; ++j) *sch.averageTo[j] = mean;
-            });
-            par.each(active.size(), 16, [&](std::size_t i) { fillEdgeRings(active[i].first, active[i].second, g, !all); });
+            sch.averages.run(par);
+            par.each(active.size(), 16, [&](std::size_t i) { fillEdgeRings(active[i].first, active[i].second, g, damp); });
             // Each tile's corners in order (a corner's extrapolation reads ring texels its tile's
             // constrained corners rewrite); the reads across tiles are interior texels only.
             par.each(active.size(), 16, [&](std::size_t i) {
-                for (int c = 0; c < 4; ++c) fillCorner(active[i].first, active[i].second, c, g, !all);
+                for (int c = 0; c < 4; ++c) fillCorner(active[i].first, active[i].second, c, g, damp);
             });
         }
     }
 
+    /// Corner constraints made into flat lists: vertex i averages *from[first[i] .. first[i + 1])
+    /// (level 0: the fit's corner values; above: the mips' corner texels) into the texels
+    /// *to[...], its incident tiles' interior corners (in incidence order).
+    struct CornerAverages {
+        std::vector<std::size_t> first{0};
+        std::vector<const double*> from;
+        std::vector<double*> to;
+        void add(const double* value, double* texel) {
+            from.push_back(value);
+            to.push_back(texel);
+        }
+        void endVertex() { first.push_back(from.size()); }
+        /// Each vertex writes only its own corners: in parallel.
+        void run(const Parallel& par) const {
+            par.each(first.size() - 1, 256, [&](std::size_t i) {
+                double sum = 0.0;
+                for (std::size_t j = first[i]; j < first[i + 1]; ++j) sum += *from[j];
+                const double mean = sum / static_cast<int>(first[i + 1] - first[i]);
+                for (std::size_t j = first[i]; j < first[i + 1]; ++j) *to[j] = mean;
+            });
+        }
+    };
     /// Per resolution, the (tile, level) pairs to compute and the tiles whose virtual level
-    /// (size 1) lies there; the constrained vertices. Made once: the sizes do not change.
+    /// (size 1) lies there; the corner constraints of the constrained vertices with a level
+    /// there (in vertex order). Made once: the sizes do not change.
     struct Schedule {
         std::vector<std::pair<int, int>> active;
         std::vector<int> virtualLevels;
-        /// The corner constraints at this resolution: constrained vertex i (those with a level
-        /// here, in vertex order) averages *averageFrom[averageFirst[i] .. averageFirst[i + 1])
-        /// (level 0: the fit's corner values; above: the mips' corner texels) into the texels
-        /// *averageTo[...], its incident tiles' interior corners (in incidence order).
-        std::vector<std::size_t> averageFirst{0};
-        std::vector<const double*> averageFrom;
-        std::vector<double*> averageTo;
+        CornerAverages averages;
     };
     void prepareSchedule() {
         if (!schedule_.empty()) return;
@@ -422,11 +436,8 @@ class TileBuild {
             for (int v = 0; v < topo_.vertexCount(); ++v) {
                 if (topo_.kind(v) != TileTopology::VertexKind::Constrained) continue;
                 for (auto [t, c] : topo_.incidences(v))
-                    if (int m = levelAt(t, g); m >= 0) {
-                        sch.averageFrom.push_back(m == 0 ? &fitCorner(t, c) : &cornerInterior(t, m, c));
-                        sch.averageTo.push_back(&cornerInterior(t, m, c));
-                    }
-                if (sch.averageFrom.size() > sch.averageFirst.back()) sch.averageFirst.push_back(sch.averageFrom.size());
+                    if (int m = levelAt(t, g); m >= 0) sch.averages.add(m == 0 ? &fitCorner(t, c) : &cornerInterior(t, m, c), &cornerInterior(t, m, c));
+                if (sch.averages.from.size() > sch.averages.first.back()) sch.averages.endVertex();
             }
         }
     }
@@ -595,14 +606,11 @@ class TileBuild {
     bool seidel() const { return seidel_; }
     /// A Gauss-Seidel sweep's colours over `tiles`: the tiles of each colour (tiles of one colour
     /// share no vertex and no edge, so they neither read each other's texels nor write the same
-    /// corner average) and its constrained vertices' corners: vertex i averages the fit's corner
-    /// values *from[first[i] .. first[i + 1]) into the level-0 texels *to[...]. The colouring is
-    /// the constructor's (greedy in tile order), restricted to `tiles`.
+    /// corner average) and the corner constraints of the constrained vertices they touch. The
+    /// colouring is the constructor's (greedy in tile order), restricted to `tiles`.
     struct Colour {
         std::vector<int> tiles;
-        std::vector<std::size_t> first{0};
-        std::vector<const double*> from;
-        std::vector<double*> to;
+        CornerAverages averages;
     };
     std::vector<Colour> colours(const std::vector<int>& tiles) {
         prepareSchedule();
@@ -620,33 +628,25 @@ class TileBuild {
             for (auto [t, c] : topo_.incidences(v)) {
                 if (!in[u(t)] || listed[u(colourOf_[u(t)])] == v) continue;
                 listed[u(colourOf_[u(t)])] = v; // once per colour (two tiles of a colour never share v)
-                Colour& cl = out[u(colourOf_[u(t)])];
-                for (auto [vt, vc] : topo_.incidences(v)) {
-                    cl.from.push_back(&fitCorner(vt, vc));
-                    cl.to.push_back(&cornerInterior(vt, 0, vc));
-                }
-                cl.first.push_back(cl.from.size());
+                CornerAverages& averages = out[u(colourOf_[u(t)])].averages;
+                for (auto [vt, vc] : topo_.incidences(v)) averages.add(&fitCorner(vt, vc), &cornerInterior(vt, 0, vc));
+                averages.endVertex();
             }
         }
         return out;
     }
     /// One Gauss-Seidel sweep (seidel() only). Per colour: the averages at its constrained
-    /// vertices from the latest fit, its tiles' rings, then its tiles solved. Returns the
-    /// largest change.
-    double solveSweepColoured(const std::vector<std::vector<double>>& samples, const std::vector<Colour>& colours, const Parallel& par) {
+    /// vertices from the latest fit, its tiles' rings (`damp`: see finalize), then its tiles
+    /// solved. Returns the largest change.
+    double solveSweepColoured(const std::vector<std::vector<double>>& samples, const std::vector<Colour>& colours, const Parallel& par,
+                              bool damp) {
         double change = 0.0;
         for (const Colour& colour : colours) {
-            par.each(colour.first.size() - 1, 256, [&](std::size_t i) {
-                const std::size_t begin = colour.first[i], end = colour.first[i + 1];
-                double sum = 0.0;
-                for (std::size_t j = begin; j < end; ++j) sum += *colour.from[j];
-                const double mean = sum / static_cast<int>(end - begin);
-                for (std::size_t j = begin; j < end; ++j) *colour.to[j] = mean;
-            });
+            colour.averages.run(par);
             par.each(colour.tiles.size(), 16, [&](std::size_t i) {
                 const int t = colour.tiles[i];
-                fillEdgeRings(t, 0, gmax_, true);
-                for (int c = 0; c < 4; ++c) fillCorner(t, 0, c, gmax_, true);
+                fillEdgeRings(t, 0, gmax_, damp);
+                for (int c = 0; c < 4; ++c) fillCorner(t, 0, c, gmax_, damp);
             });
             change = std::max(change, solveSweep(samples, colour.tiles, par));
         }
@@ -961,9 +961,9 @@ inline void TileFitter::solve(const std::vector<int>& tiles) {
     if (build_->seidel()) colours = build_->colours(tiles);
     for (rep.sweeps = 1; rep.sweeps <= options_.maxSweeps; ++rep.sweeps) {
         if (build_->seidel()) {
-            rep.lastChange = build_->solveSweepColoured(samples_, colours, par);
+            rep.lastChange = build_->solveSweepColoured(samples_, colours, par, rep.sweeps > 1);
         } else {
-            build_->finalize(options_.filter, par, false);
+            build_->finalize(options_.filter, par, false, rep.sweeps > 1);
             rep.lastChange = build_->solveSweep(samples_, tiles, par);
         }
         if (rep.lastChange <= options_.tolerance * (1.0 + maxAbs)) break;
