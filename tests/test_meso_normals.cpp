@@ -229,5 +229,48 @@ TEST_CASE("bad normal-map inputs are clear errors", "[meso][normals][inputs]") {
     CHECK_THROWS_WITH(sampleMesoNormal<float>(map, {0, 0}, 0, std::nan(""), 1), Contains("greenT +1 or -1"));
 }
 
+TEST_CASE("height images whose size the field's does not divide: all of the image, area-weighted", "[meso][normals][inputs]") {
+    // Until 2026-12-04 the box filter took width / size texels a sample (integer division) and
+    // cut the remainder: a 100-wide image at size 32 lost its last 4 columns, and the field
+    // no longer lined up with an albedo over the whole tile. Reference: the same image with every
+    // texel repeated 8 x 8 times, filtered with whole blocks (800 / 32 = 25, 576 / 32 = 18),
+    // whose block means are the area-weighted means of the original.
+    HeightImage img;
+    img.width = 100;
+    img.height = 72;
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<float> U(0.0f, 1.0f);
+    for (int i = 0; i < img.width * img.height; ++i) img.values.push_back(U(rng));
+    HeightImage fine;
+    fine.width = 8 * img.width;
+    fine.height = 8 * img.height;
+    for (int y = 0; y < fine.height; ++y)
+        for (int x = 0; x < fine.width; ++x) fine.values.push_back(img.at(x / 8, y / 8));
+    const HeightImage a = downsampleHeightImage(img, 32), b = downsampleHeightImage(fine, 32);
+    REQUIRE((a.width == 32 && a.height == 32 && b.width == 32));
+    double worst = 0;
+    for (std::size_t i = 0; i < a.values.size(); ++i) worst = std::max(worst, std::abs(double(a.values[i]) - double(b.values[i])));
+    // Both round a mean of values in [0, 1] to float once (6e-8), their sums in another order.
+    CHECK(worst < 2e-7);
+    // The last column and row read the image's last texels (they were cut before).
+    HeightImage edge = img;
+    for (int y = 0; y < edge.height; ++y) edge.values[std::size_t(y * edge.width + edge.width - 1)] += 1.0f;
+    CHECK(downsampleHeightImage(edge, 32).at(31, 5) > a.at(31, 5) + 0.1f);
+    // A constant image stays constant.
+    HeightImage flat;
+    flat.width = 77;
+    flat.height = 45;
+    flat.values.assign(77 * 45, 0.625f);
+    for (float v : downsampleHeightImage(flat, 16).values) CHECK(v == Approx(0.625).epsilon(1e-6));
+    // The normal map made from the heights covers the same image, whole.
+    const HeightImage aligned = fieldAlignedHeightImage(img, 32);
+    CHECK((aligned.width == 100 && aligned.height == 72));
+    for (float v : fieldAlignedHeightImage(flat, 16).values) CHECK(v == Approx(0.625).epsilon(1e-6));
+    // Sizes out of range are refused, as before.
+    CHECK_THROWS_WITH(downsampleHeightImage(img, 73), Contains("is smaller"));
+    CHECK_THROWS_WITH(fieldAlignedHeightImage(img, 101), Contains("is smaller"));
+    CHECK_THROWS_WITH(downsampleHeightImage(img, 1), Contains("below 2"));
+}
+
 } // namespace
 } // namespace meso_normals_test

@@ -53,6 +53,7 @@
 // Every key is optional; unknown keys, bad values and missing files are ArgumentError /
 // FileError naming the scene and the key.
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -221,22 +222,51 @@ inline MesoHeightField mesoFunctionField(const std::string& function, int size, 
     return mesoHeightField(size, size, layers, std::move(h));
 }
 
-/// The image box-filtered to size x size (integer factors; the remainder is cut).
+namespace detail {
+/// The texels along one side of an image (n of them) that sample i of `size` covers when the
+/// side is cut into `size` equal parts: [first, first + weight.size()), each weighted by the
+/// part of it inside [i n / size, (i + 1) n / size) (1 for a whole texel).
+struct BoxFootprint {
+    int first = 0;
+    std::vector<double> weight;
+};
+inline std::vector<BoxFootprint> boxFootprints(int n, int size) {
+    std::vector<BoxFootprint> out(static_cast<std::size_t>(size));
+    const double scale = static_cast<double>(n) / size;
+    for (int i = 0; i < size; ++i) {
+        const double lo = i * scale, hi = i + 1 == size ? static_cast<double>(n) : (i + 1) * scale;
+        BoxFootprint& f = out[static_cast<std::size_t>(i)];
+        f.first = static_cast<int>(std::floor(lo));
+        for (int t = f.first; t < n && t < hi; ++t) f.weight.push_back(std::min(t + 1.0, hi) - std::max(static_cast<double>(t), lo));
+    }
+    return out;
+}
+} // namespace detail
+
+/// The image box-filtered to size x size: each field sample is the mean of the part of the
+/// image its square of the tile covers, width / size x height / size texels, the texels cut by
+/// the square's border weighted by the part of them inside (all of the image is used; where
+/// size divides both sides these are plain block means). Throws ArgumentError for a size below
+/// 2 or larger than a side.
 inline HeightImage downsampleHeightImage(const HeightImage& img, int size) {
     if (size < 2) throw ArgumentError("downsampleHeightImage: size " + std::to_string(size) + " is below 2");
-    const int fx = img.width / size, fy = img.height / size;
-    if (fx < 1 || fy < 1)
+    if (img.width < size || img.height < size)
         throw ArgumentError("downsampleHeightImage: size " + std::to_string(size) + ": the image (" + std::to_string(img.width) + " x " +
                             std::to_string(img.height) + ") is smaller");
+    const std::vector<detail::BoxFootprint> xs = detail::boxFootprints(img.width, size), ys = detail::boxFootprints(img.height, size);
+    const double area = (static_cast<double>(img.width) / size) * (static_cast<double>(img.height) / size);
     HeightImage small;
     small.width = small.height = size;
     small.values.assign(static_cast<std::size_t>(size) * static_cast<std::size_t>(size), 0.0f);
     for (int y = 0; y < size; ++y)
         for (int x = 0; x < size; ++x) {
+            const detail::BoxFootprint &fx = xs[static_cast<std::size_t>(x)], &fy = ys[static_cast<std::size_t>(y)];
             double sum = 0;
-            for (int b = 0; b < fy; ++b)
-                for (int a = 0; a < fx; ++a) sum += static_cast<double>(img.at(x * fx + a, y * fy + b));
-            small.values[static_cast<std::size_t>(y * size + x)] = static_cast<float>(sum / (fx * fy));
+            for (std::size_t b = 0; b < fy.weight.size(); ++b)
+                for (std::size_t a = 0; a < fx.weight.size(); ++a)
+                    sum += fy.weight[b] * fx.weight[a] *
+                           static_cast<double>(img.at(fx.first + static_cast<int>(a), fy.first + static_cast<int>(b)));
+            small.values[static_cast<std::size_t>(y * size + x)] = static_cast<float>(sum / area);
         }
     return small;
 }
@@ -252,17 +282,18 @@ template <class At> double bilinearWrapped(double px, double py, int w, int h, c
 }
 } // namespace detail
 
-/// The height image as the normal map of a scene's "normals": "height" sees it: the part
-/// that downsampleHeightImage(img, size) filters (fx size x fy size texels, fx = width / size),
-/// resampled bilinearly (wrapping in that part) (fx - 1) / 2 and (fy - 1) / 2 texels on, so that
-/// texel (fx i, fy j), which sits on the field's sample (i, j), holds the centre of the block
-/// the sample averages. The image itself when size is 0 or its width.
+/// The height image as the normal map of a scene's "normals": "height" sees it: all of it,
+/// resampled bilinearly (wrapping) (fx - 1) / 2 and (fy - 1) / 2 texels on (fx = width / size,
+/// fy = height / size, not necessarily whole), so that the point fx i, fy j, which sits on the
+/// field's sample (i, j), holds the centre of the square the sample averages
+/// (downsampleHeightImage). The image itself when size is 0 or its width.
 inline HeightImage fieldAlignedHeightImage(const HeightImage& img, int size) {
     if (size == 0 || size == img.width) return img;
-    const int fx = size > 0 ? img.width / size : 0, fy = size > 0 ? img.height / size : 0, w = fx * size, h = fy * size;
-    if (fx < 1 || fy < 1)
+    const int w = img.width, h = img.height;
+    if (size < 0 || w < size || h < size)
         throw ArgumentError("fieldAlignedHeightImage: size " + std::to_string(size) + ": the image (" + std::to_string(img.width) + " x " +
                             std::to_string(img.height) + ") is smaller");
+    const double fx = static_cast<double>(w) / size, fy = static_cast<double>(h) / size;
     const double ox = 0.5 * (fx - 1), oy = 0.5 * (fy - 1);
     HeightImage out;
     out.width = w;
