@@ -174,11 +174,11 @@ namespace detail {
 ///
 /// Memory: the sweeps of a large set are bound by memory, not arithmetic (a tile of 4 x 4 has
 /// 16 unknowns and reads 20 ring texels of other tiles), so the state is kept compact and in
-/// the order the sweeps walk it: one array holds every tile's level 0 (in tile order, or colour
-/// by colour where the sweeps are Gauss-Seidel), then every tile's level 1, and so on (levels 0..k-1 and the virtual level k of size 1, see
-/// sourceLevelAt); the fit solves straight into level 0's interior, keeping aside only the
-/// four corner texels it solved (which the corner constraint overwrites there); the ring plans
-/// are flat arrays.
+/// the order the sweeps walk it: one array holds every tile's level 0 (in tile order, or
+/// colour by colour where the sweeps are Gauss-Seidel), then every tile's level 1, and so on
+/// (levels 0..k-1 and the virtual level k of size 1, see sourceLevelAt); the fit solves
+/// straight into level 0's interior, keeping aside only the four corner texels it solved
+/// (which the corner constraint overwrites there); the ring plans are flat arrays.
 class TileBuild {
   public:
     TileBuild(const TileTopology& topo, std::vector<int> k) : topo_(topo), k_(std::move(k)) {
