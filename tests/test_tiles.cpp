@@ -11,6 +11,7 @@
 #include "dispmap/kernels/bspline.h"
 #include "dispmap/kernels/lod.h"
 #include "dispmap/kernels/tile.h"
+#include "dispmap/scene/build.h"
 #include "dispmap/surface/tile_builder.h"
 #include "test_support.h"
 
@@ -483,15 +484,8 @@ TEST_CASE("the fit converges on boundaries, mesh corners, T-junctions and mixed 
         const ControlMesh mesh = dmtest::shape(name);
         for (int mode = 0; mode < 5; ++mode) {
             if (mode == 4 && mesh.ptexFaceCount() != mesh.base().GetNumFaces()) continue; // sub-faces need k >= 2
-            const std::vector<int> k = mode == 2 ? [&] {
-                // mixed sizes: every third quad one size smaller, the quads at T-junctions kept
-                std::vector<int> out = uniformTileSizes(mesh, 4);
-                const std::vector<char> pinned = quadsPinnedByNonQuads(mesh);
-                for (int f = 0; f < mesh.base().GetNumFaces(); ++f)
-                    if (mesh.base().GetFaceVertices(f).size() == 4 && !pinned[std::size_t(f)] && f % 3 == 0)
-                        out[std::size_t(mesh.ptex().GetFaceId(f))] = 3;
-                return out;
-            }() : uniformTileSizes(mesh, mode == 0 ? 3 : mode == 1 ? 4 : mode == 3 ? 2 : 1);
+            // mode 2: mixed sizes (k = 4, 3, 2 by Ptex face, the quads at T-junctions kept at 4)
+            const std::vector<int> k = mode == 2 ? mixedTileSizes(mesh, 4) : uniformTileSizes(mesh, mode == 0 ? 3 : mode == 1 ? 4 : mode == 3 ? 2 : 1);
             BuildReport rep;
             (void)buildTiles(mesh, k, dmtest::roughSource, {}, &rep);
             INFO(name << ", mode " << mode << ": " << rep.sweeps << " sweeps, last change " << rep.lastChange << ", residual away from constraints "

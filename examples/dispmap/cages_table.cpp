@@ -354,9 +354,8 @@ void printCagesTable(std::ostream& out, const CagesTableArgs& a) {
     if (!a.quick && std::filesystem::exists(a.denseDir + "/cgal_bunny00.off")) {
         SimplifyOptions so;
         so.targetFaces = 52000;
-        const ControlMesh mesh(simplifiedControlMesh(readDenseMesh(a.denseDir + "/cgal_bunny00.off"), so, nullptr));
-        MeshDescription d = mesh.description();
-        d.name = "bunny decimated to " + std::to_string(mesh.base().GetNumFaces()) + " triangles";
+        MeshDescription d = simplifiedControlMesh(readDenseMesh(a.denseDir + "/cgal_bunny00.off"), so, nullptr);
+        d.name = "bunny decimated to " + std::to_string(d.faceSizes.size()) + " triangles";
         const ControlMesh named(std::move(d));
         for (bool gregory : {true, false}) {
             rows.push_back(stages(named, "dense", 2, nullptr, gregory));

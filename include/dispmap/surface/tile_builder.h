@@ -193,11 +193,11 @@ class TileBuild {
         // about half the sweeps, but visits the tiles colour by colour, which on small tiles
         // costs more in memory traffic than the sweeps it saves (figures.md, "Production-size
         // cages": on the bunny's 4 x 4 tiles 1.2x slower, on 8 x 8 and larger 1.2-1.8x faster).
-        bool uniform = true;
-        for (int t = 0; t < n; ++t) uniform = uniform && global(t, 0) == global(0, 0) && k_[u(t)] >= 3;
+        seidel_ = true;
+        for (int t = 0; t < n; ++t) seidel_ = seidel_ && global(t, 0) == global(0, 0) && k_[u(t)] >= 3;
         std::vector<int> order(u(n));
         for (int t = 0; t < n; ++t) order[u(t)] = t;
-        if (uniform) {
+        if (seidel_) {
             std::vector<char> used;
             int colours = 0;
             for (int t = 0; t < n; ++t) {
@@ -213,7 +213,6 @@ class TileBuild {
             }
             std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return colourOf_[u(a)] < colourOf_[u(b)]; });
         }
-        seidel_ = uniform;
         for (int i = 0; i < n; ++i) rank_[u(order[u(i)])] = u(i);
         std::size_t levels = u(n);
         firstLevel_.resize(u(n));
@@ -655,9 +654,10 @@ class TileBuild {
 
     /// One sweep of the fit: each tile of `tiles` has its interior solved exactly with the
     /// current rings (the other tiles stay as they are). Returns the largest change. Tiles are
-    /// solved in parallel (each writes only its own fit interior); the largest change is taken
-    /// over per-tile maxima, the same on any number of threads. No allocation per tile: one
-    /// scratch buffer per range of tiles, and the Thomas factors of each size made once.
+    /// solved in parallel (each writes only its own level-0 interior and fit corners); the
+    /// largest change is taken over per-tile maxima, the same on any number of threads. No
+    /// allocation per tile: one scratch buffer per range of tiles, and the Thomas factors of
+    /// each size made once.
     double solveSweep(const std::vector<std::vector<double>>& samples, const std::vector<int>& tiles, const Parallel& par) {
         for (int t : tiles) thomas(k_[u(t)]);
         changes_.assign(tiles.size(), 0.0);
@@ -704,24 +704,19 @@ class TileBuild {
         for (int j = 0; j < s; ++j)
             for (int i = 0; i < s; ++i) scratch[u(i * s + j)] = rhs[u(j * s + i)];
         tridiagonalLines(scratch.data(), s, th);
-        // Into level 0's interior; the corners' previous fit values are kept aside (the
-        // constraint may have overwritten the texels), and so are the new ones.
+        // Into level 0's interior, whose corner texels get the fit's values back first (the
+        // constraint may have overwritten them: the change is against the last fit), and give
+        // the new ones to fitCorner.
+        for (int c = 0; c < 4; ++c) cornerInterior(t, 0, c) = fitCorner(t, c);
         double change = 0.0;
-        double corner[4];
-        for (int c = 0; c < 4; ++c) corner[c] = fitCorner(t, c);
-        for (int c = 0; c < 4; ++c) {
-            const glm::ivec2 p = edgeTexel(c, 1, 1, s);
-            fitCorner(t, c) = scratch[u((p.x - 1) * s + p.y - 1)];
-        }
         for (int j = 0; j < s; ++j)
             for (int i = 0; i < s; ++i) {
                 double& x = at(t, 0, i + 1, j + 1);
-                const bool atCorner = (i == 0 || i == s - 1) && (j == 0 || j == s - 1);
-                const double before = atCorner ? corner[(i == 0 ? (j == 0 ? 0 : 3) : (j == 0 ? 1 : 2))] : x;
                 const double solved = scratch[u(i * s + j)];
-                change = std::max(change, std::abs(solved - before));
+                change = std::max(change, std::abs(solved - x));
                 x = solved;
             }
+        for (int c = 0; c < 4; ++c) fitCorner(t, c) = cornerInterior(t, 0, c);
         return change;
     }
     /// Solves tridiag(1, 6, 1) along the rows index of an s x s block (row r at a + r s) for
