@@ -19,9 +19,11 @@
 #include <cstdlib>
 #include <limits>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "dispmap/scene/build.h"
 #include "dispmap/surface/displaced_surface.h"
 #include "dispmap/surface/tile_builder.h"
 #include "test_support.h"
@@ -1325,6 +1327,277 @@ TEMPLATE_TEST_CASE("hard cases: near-singular first fundamental form in the norm
 
 // ---------------------------------------------------------------------------------------
 // 8. Bad inputs
+
+// ---------------------------------------------------------------------------------------
+// Grid evaluation (a tessellation's inner grid): BaseSurface::Row, TileSet::Row and
+// DisplacedSurface::evaluateGrid against the point-by-point routes they stand in for.
+
+namespace {
+/// Grid coordinates: both ends, the midpoint and quarter points (patch boundaries at every
+/// isolation level, where PatchMap's rule picks the upper patch), points a rounding away from
+/// them, and points in between.
+template <typename real> std::vector<real> gridCoordinates() {
+    std::vector<real> x = {real(0), real(1), real(0.5), real(0.25), real(0.75), std::nextafter(real(0.5), real(0)),
+                           std::nextafter(real(0.25), real(1)), std::nextafter(real(1), real(0))};
+    for (int i = 1; i < 12; ++i) x.push_back(real(i) / real(12) + real(0.0137) * real(i % 3));
+    return x;
+}
+} // namespace
+
+TEMPLATE_TEST_CASE("base surface rows: each regular patch collapsed once per row equals evaluate() to rounding", "[surface][grid]",
+                   float, double) {
+    // BaseSurface::Row sums the same products as evaluate() (the basis of kernels/patch.h,
+    // which is EvaluateBasis to a few ulps) in another order: v first, then u. Each result is
+    // then within K eps of the condition of its sum, sum_i |w_i| |P_i| with Far's weights
+    // (the size of the terms that cancel; float rounds the points once more, eps / 2 of the
+    // same sum). K = 16: a 4-term and a 4-term sum with the basis's own rounding, in each of
+    // the two routes. Measured worst: 3.5 (float) and 3.8 (double) for positions, 2.1 and 2.2
+    // for derivatives (DISPMAP_SURFACE_REPORT=1 prints them). Where an end cap holds the
+    // point, at() returns false and touches nothing.
+    using real = TestType;
+    const double eps = std::numeric_limits<real>::epsilon(), K = 16;
+    double worst[2] = {0, 0};
+    for (const bool gregory : {true, false})
+        for (const std::string& name : allShapes()) {
+            CAPTURE(name, gregory);
+            BaseSurfaceOptions bo;
+            bo.gregoryEndCaps = gregory;
+            bo.isolationLevel = 3;
+            const ControlMesh mesh = dmtest::shape(name);
+            const BaseSurface base(mesh, bo);
+            const Far::PatchTable& T = base.patchTable();
+            const Far::PatchMap map(T);
+            const std::vector<dvec3>& P = base.points();
+            const std::vector<real> xs = gridCoordinates<real>();
+            int regular = 0, endCaps = 0, failures = 0;
+            for (int face = 0; face < base.faceCount(); ++face) {
+                if (base.isHole(face)) continue;
+                for (const real v : xs) {
+                    typename BaseSurface::Row<real> row(base, face, v);
+                    for (const real u : xs) {
+                        const Far::PatchTable::PatchHandle* h = map.FindPatch(face, double(u), double(v));
+                        REQUIRE(h != nullptr);
+                        const Far::PatchParam param = T.GetPatchParam(*h);
+                        BaseSample<real> got;
+                        got.evWeight = real(-1); // untouched where false
+                        if (!row.at(u, got)) {
+                            ++endCaps;
+                            CHECK(!param.IsRegular());
+                            CHECK(got.evWeight == real(-1));
+                            continue;
+                        }
+                        ++regular;
+                        CHECK(param.IsRegular());
+                        const BaseSample<real> want = base.evaluate<real>(face, u, v, false);
+                        double w[20], wu[20], wv[20];
+                        T.EvaluateBasis(*h, double(u), double(v), w, wu, wv);
+                        const Far::ConstIndexArray cv = T.GetPatchVertices(*h);
+                        const double fix = param.NonQuadRoot() ? 0.5 : 1.0; // Far's 2^depth on sub-faces (base_surface.h)
+                        double c0 = 0, cu = 0, cvv = 0;
+                        for (int i = 0; i < cv.size(); ++i) {
+                            const double x = glm::length(P[static_cast<std::size_t>(cv[i])]);
+                            c0 += std::abs(w[i]) * x;
+                            cu += std::abs(wu[i]) * fix * x;
+                            cvv += std::abs(wv[i]) * fix * x;
+                        }
+                        const double e0 = glm::length(dvec3(got.p) - dvec3(want.p)) / (eps * c0);
+                        const double e1 = std::max(glm::length(dvec3(got.du) - dvec3(want.du)) / (eps * cu),
+                                                   glm::length(dvec3(got.dv) - dvec3(want.dv)) / (eps * cvv));
+                        worst[0] = std::max(worst[0], e0);
+                        worst[1] = std::max(worst[1], e1);
+                        const bool ok = e0 <= K && e1 <= K && got.duu == glm::vec<3, real>(0) && got.evWeight == real(0) && !got.endCap;
+                        if (!ok && failures++ == 0) {
+                            CAPTURE(face, u, v, e0, e1);
+                            CHECK(ok);
+                        }
+                    }
+                }
+            }
+            CHECK(failures == 0);
+            CHECK(regular > 0);
+            bool irregular = false; // some shapes are regular patches throughout (boundaries and creases included)
+            for (int a = 0; a < T.GetNumPatchArrays(); ++a)
+                for (int i = 0; i < T.GetNumPatches(a); ++i) irregular = irregular || !T.GetPatchParam(a, i).IsRegular();
+            CHECK((endCaps > 0) == irregular);
+        }
+    report("base surface rows (%s) vs evaluate, worst in eps of the sum's condition: positions %.2f, derivatives %.2f\n",
+           sizeof(real) == 8 ? "double" : "float", worst[0], worst[1]);
+
+    const ControlMesh holes = dmtest::shape("catmark_hole_test1");
+    const BaseSurface base(holes);
+    int hole = 0;
+    while (!base.isHole(hole)) ++hole;
+    const real nan = std::numeric_limits<real>::quiet_NaN();
+    using Catch::Matchers::Contains;
+    CHECK_THROWS_WITH((typename BaseSurface::Row<real>(base, hole, real(0.5))), Contains("is a hole"));
+    CHECK_THROWS_WITH((typename BaseSurface::Row<real>(base, base.faceCount(), real(0.5))), Contains("out of range"));
+    CHECK_THROWS_WITH((typename BaseSurface::Row<real>(base, 0, real(1.5))), Contains("is not in [0, 1]^2"));
+    CHECK_THROWS_AS((typename BaseSurface::Row<real>(base, 0, nan)), ArgumentError);
+    typename BaseSurface::Row<real> row(base, 0, real(0.5));
+    BaseSample<real> s;
+    CHECK_THROWS_WITH(row.at(real(-0.25), s), Contains("is not in [0, 1]^2"));
+    CHECK_THROWS_AS(row.at(nan, s), ArgumentError);
+}
+
+TEMPLATE_TEST_CASE("tile rows: three coefficient rows collapsed once per row equal evaluateD1 to rounding", "[surface][grid]", float,
+                   double) {
+    // TileSet::Row sums the 9 products of evaluateD1 v first, then u. Each result is within
+    // K eps of its condition, sum |w_ij| |c_ij| (the biquadratic weights, derivatives with the
+    // level size s), K = 8 (two 3-term sums in each route, the basis rounded alike). Measured
+    // worst: 2.7 (float) and 2.2 (double).
+    using real = TestType;
+    const double eps = std::numeric_limits<real>::epsilon(), K = 8;
+    const ControlMesh mesh = dmtest::shape("catmark_nonquads");
+    const TileSet tiles = buildTiles(mesh, mixedTileSizes(mesh, 5), dmtest::roughSource);
+    const std::vector<real> xs = gridCoordinates<real>();
+    double worst = 0;
+    int failures = 0;
+    for (int t = 0; t < tiles.tileCount(); ++t)
+        for (int m = 0; m < tiles.tiles[static_cast<std::size_t>(t)].k; ++m) {
+            typename TileSet::Row<real> row(tiles, t, m);
+            for (const real v : xs) {
+                row.setRow(v, xs);
+                for (const real u : xs) {
+                    const glm::vec<3, real> got = row.at(u), want = tiles.evaluateD1(t, m, glm::vec<2, real>(u, v));
+                    glm::vec<2, real> tl;
+                    real size;
+                    const glm::mat<3, 3, real> c = tiles.subpatch(t, m, glm::vec<2, real>(u, v), tl, size);
+                    const glm::dvec3 bu(kern::dmBSpline2(double(tl.x))), bv(kern::dmBSpline2(double(tl.y)));
+                    const glm::dvec3 du(kern::dmBSpline2D1(double(tl.x))), dv(kern::dmBSpline2D1(double(tl.y)));
+                    double c0 = 0, cu = 0, cv = 0;
+                    for (int i = 0; i < 3; ++i)
+                        for (int j = 0; j < 3; ++j) {
+                            const double a = std::abs(double(c[i][j]));
+                            c0 += std::abs(bu[i] * bv[j]) * a;
+                            cu += std::abs(du[i] * bv[j]) * a * double(size);
+                            cv += std::abs(bu[i] * dv[j]) * a * double(size);
+                        }
+                    const double e = std::max({std::abs(double(got.x) - double(want.x)) / (eps * c0 + 1e-300),
+                                               std::abs(double(got.y) - double(want.y)) / (eps * cu + 1e-300),
+                                               std::abs(double(got.z) - double(want.z)) / (eps * cv + 1e-300)});
+                    worst = std::max(worst, e);
+                    if (!(e <= K) && failures++ == 0) {
+                        CAPTURE(t, m, u, v, e);
+                        CHECK(e <= K);
+                    }
+                }
+            }
+        }
+    CHECK(failures == 0);
+    report("tile rows (%s) vs evaluateD1, worst in eps of the sum's condition: %.2f\n", sizeof(real) == 8 ? "double" : "float", worst);
+    using Catch::Matchers::Contains;
+    typename TileSet::Row<real> row(tiles, 0, 0);
+    CHECK_THROWS_WITH(row.at(real(0.5)), Contains("did not collapse")); // before setRow
+    const std::vector<real> some = {real(0.25), real(0.3)};
+    row.setRow(real(0.5), some);
+    CHECK_NOTHROW(row.at(real(0.3)));
+    CHECK_THROWS_WITH(row.at(real(0.9)), Contains("did not collapse"));
+    CHECK_THROWS_AS(row.at(std::numeric_limits<real>::quiet_NaN()), ArgumentError);
+    CHECK_THROWS_AS(row.setRow(std::numeric_limits<real>::infinity(), some), ArgumentError);
+    const std::vector<real> nan = {std::numeric_limits<real>::quiet_NaN()};
+    CHECK_THROWS_AS(row.setRow(real(0.5), nan), ArgumentError);
+    CHECK_THROWS_AS((typename TileSet::Row<real>(tiles, tiles.tileCount(), 0)), std::out_of_range);
+}
+
+TEST_CASE("grid evaluation equals evaluate() to rounding, and is evaluate() itself off the row route", "[surface][grid]") {
+    // evaluateGrid routes approximate normals in regular patches through the two rows above
+    // and evaluates every other point with evaluate(): those must be equal bit for bit, the
+    // row-routed ones to rounding. Bounds: positions 1e-13 of the mesh's extent (measured
+    // worst 4.4e-15: the rows' rounding, a few eps of coordinates of size ~extent); normals
+    // 1e-10 rad (measured 7.1e-13: the normal's rounding error grows with |D_u| / |s_u| and
+    // with 1 / sin of the angle between s_u and s_v).
+    double worstP = 0, worstN = 0;
+    int rowRouted = 0, pointRouted = 0;
+    for (const char* name : {"catmark_nonquads", "catmark_pole8", "catmark_xord_boundary", "catmark_edgecorner", "catmark_helmet",
+                             "catmark_dart_edgecorner", "catmark_hole_test1", "spot_control_mesh"})
+        for (const bool mixed : {false, true}) {
+            CAPTURE(name, mixed);
+            const ControlMesh mesh = dmtest::shape(name);
+            const double extent = extentOf(mesh);
+            const BaseSurface base(mesh);
+            const TileSet tiles = buildTiles(mesh, mixed ? mixedTileSizes(mesh, 4) : uniformTileSizes(mesh, 4), [extent](int f, double u, double v) {
+                return 0.02 * extent * waves(f, u, v);
+            });
+            const DisplacedSurface surface(base, tiles);
+            const std::vector<double> xs = gridCoordinates<double>();
+            // Resolutions: the finest level, and blends of coarser ones varying over the grid.
+            const auto rhoOf = [&](int which, std::size_t i, std::size_t j) {
+                return which == 0 ? kFinest : 1.3 + 0.21 * double(i % 7) + 0.17 * double(j % 5);
+            };
+            for (const NormalMode mode : {NormalMode::Approximate, NormalMode::Accurate, NormalMode::Auto})
+                for (int which : {0, 1}) {
+                    CAPTURE(toString(mode), which);
+                    int failures = 0;
+                    for (int face = 0; face < base.faceCount(); ++face) {
+                        if (base.isHole(face)) {
+                            CHECK_THROWS_WITH(surface.evaluateGrid<double>(
+                                                  face, xs, xs, mode, [](std::size_t, std::size_t) { return kFinest; },
+                                                  [](std::size_t, std::size_t, const SurfaceSample<double>&) {}),
+                                              Catch::Contains("is a hole"));
+                            continue;
+                        }
+                        std::size_t expected = 0;
+                        surface.evaluateGrid<double>(
+                            face, xs, xs, mode, [&](std::size_t i, std::size_t j) { return rhoOf(which, i, j); },
+                            [&](std::size_t i, std::size_t j, const SurfaceSample<double>& got) {
+                                const bool inOrder = j * xs.size() + i == expected++;
+                                const double u = xs[i], v = xs[j], rho = rhoOf(which, i, j);
+                                const SurfaceSample<double> want = surface.evaluate<double>(face, u, v, mode, rho);
+                                const bool same = got.position == want.position && got.normal == want.normal && got.du == want.du &&
+                                                  got.dv == want.dv && got.baseNormal == want.baseNormal &&
+                                                  got.displacement == want.displacement && got.accurate == want.accurate;
+                                // The row route: approximate normals in a regular patch.
+                                BaseSample<double> probe;
+                                typename BaseSurface::Row<double> row(base, face, v);
+                                const bool routed = !want.accurate && row.at(u, probe);
+                                const double dp = glm::length(got.position - want.position) / extent,
+                                             dn = angleBetween(got.normal, want.normal);
+                                bool ok = inOrder && got.accurate == want.accurate;
+                                if (routed) {
+                                    ++rowRouted;
+                                    worstP = std::max(worstP, dp);
+                                    worstN = std::max(worstN, dn);
+                                    ok = ok && dp <= 1e-13 && dn <= 1e-10;
+                                } else {
+                                    ++pointRouted;
+                                    ok = ok && same;
+                                }
+                                if (!ok && failures++ == 0) {
+                                    CAPTURE(face, u, v, rho, routed, dp, dn, inOrder);
+                                    CHECK(ok);
+                                }
+                            });
+                        CHECK(expected == xs.size() * xs.size());
+                    }
+                    CHECK(failures == 0);
+                }
+        }
+    CHECK(rowRouted > 0);
+    CHECK(pointRouted > 0);
+    report("grid evaluation vs evaluate: %d points by rows (worst position %.3g of the extent, normal %.3g rad), %d by points, equal\n",
+           rowRouted, worstP, worstN, pointRouted);
+
+    // Bad input: the first bad point of a row throws before any point of that row is delivered.
+    const ControlMesh mesh = dmtest::shape("catmark_nonquads");
+    const BaseSurface base(mesh);
+    const TileSet tiles = buildTiles(mesh, uniformTileSizes(mesh, 3), dmtest::roughSource);
+    const DisplacedSurface surface(base, tiles);
+    const std::vector<double> good = {0.0, 0.5, 1.0}, bad = {0.0, 1.25, 0.5};
+    int delivered = 0;
+    auto count = [&](std::size_t, std::size_t, const SurfaceSample<double>&) { ++delivered; };
+    auto finest = [](std::size_t, std::size_t) { return kFinest; };
+    using Catch::Matchers::Contains;
+    CHECK_THROWS_WITH(surface.evaluateGrid<double>(0, bad, good, NormalMode::Approximate, finest, count), Contains("(1.250000, 0.000000)"));
+    CHECK(delivered == 0);
+    CHECK_THROWS_WITH(surface.evaluateGrid<double>(0, good, bad, NormalMode::Accurate, finest, count), Contains("(0.000000, 1.250000)"));
+    CHECK(delivered == 3); // the first row
+    delivered = 0;
+    CHECK_THROWS_WITH(surface.evaluateGrid<double>(0, good, good, NormalMode::Approximate,
+                                                   [](std::size_t i, std::size_t) { return i == 2 ? std::nan("") : kFinest; }, count),
+                      Contains("rho is NaN"));
+    CHECK(delivered == 0);
+    CHECK_THROWS_WITH(surface.evaluateGrid<double>(base.faceCount(), good, good, NormalMode::Auto, finest, count), Contains("out of range"));
+}
 
 TEST_CASE("bad inputs: clear errors", "[surface]") {
     using Catch::Matchers::Contains;

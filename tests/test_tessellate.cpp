@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <bit>
 #include <cstring>
+#include <limits>
 #include <map>
 #include <memory>
 #include <random>
@@ -568,6 +569,33 @@ TEST_CASE("tessellator: bad inputs are rejected with a message", "[tessellate]")
     so.tMin = 4;
     so.tMax = 2;
     REQUIRE_THROWS_WITH(measureSwimming(sc->surface, so), Catch::Contains("is invalid"));
+}
+
+TEST_CASE("tessellator: a surface that is not finite is named, whatever the route and thread count, and the mesh left empty",
+          "[tessellate]") {
+    // Tile 3 holds infinite coefficients (tiles edited after the build: buildTiles itself
+    // refuses such samples), so every vertex evaluated in face 3 is infinite: the grid's, by
+    // evaluateGrid's rows (approximate normals), and by evaluate() (accurate normals), and
+    // those on its edges. The first of them in index order is named.
+    const ControlMesh mesh = dmtest::shape("catmark_cube");
+    const BaseSurface base(mesh);
+    const TileSet good = buildTiles(mesh, uniformTileSizes(mesh, 3), dmtest::roughSource);
+    TileSet tiles = good;
+    for (float& c : tiles.tiles[3].coefficients) c = std::numeric_limits<float>::infinity();
+    const DisplacedSurface fine(base, good), surface(base, tiles);
+    TriangleMesh used = tessellate(fine, uniformTessFactors(base, 8.0)); // a mesh in use: emptied by the throw
+    for (const NormalMode mode : {NormalMode::Approximate, NormalMode::Accurate})
+        for (const int threads : {1, 2}) {
+            CAPTURE(toString(mode), threads);
+            TessellateOptions o;
+            o.normals = mode;
+            o.threads = threads;
+            const Tessellator tess(surface, uniformTessFactors(base, 8.0), o);
+            REQUIRE_THROWS_WITH(tess.tessellate(used), Catch::Contains("not finite at Ptex face 3"));
+            CHECK(used.vertexCount() == 0);
+            CHECK(used.triangleCount() == 0);
+            CHECK(used.triangleUVs.empty());
+        }
 }
 
 } // namespace dmtest_tessellate

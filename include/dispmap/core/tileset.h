@@ -11,6 +11,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -294,6 +295,79 @@ class TileSet {
     /// Packs every tile into one texture (shelf packing, tallest first) and writes the patch
     /// records. Throws ArgumentError if the texture would exceed the 16-bit offsets.
     PackedTiles pack() const;
+
+    /// evaluateD1 along rows v = const of one level of one tile, for many u: see below.
+    template <typename real> class Row;
+};
+
+/// (D, D_u, D_v) of one level of one tile along a row v = const, for many u (a tessellation's
+/// grid). The three coefficient rows the row reads are collapsed once per column with the v
+/// basis and its derivative (the columns the row's points read, each once), so each u sums
+/// 3 + 3 collapsed values with the u basis where evaluateD1 gathers 9 coefficients and
+/// multiplies twice. The result is evaluateD1(tile, m, (u, v)) to rounding, not bit for bit
+/// (the same 9 products summed v first, where dmBiquadraticD1 sums u first). The row keeps a
+/// pointer to the set; one per thread. setRow() starts a row, at() reads it.
+template <typename real> class TileSet::Row {
+  public:
+    using vec3 = glm::vec<3, real>;
+    /// Level m of `tile` (clamped to the tile's levels, as subpatch()). Throws std::out_of_range
+    /// for a tile index out of range, as tiles.at().
+    Row(const TileSet& set, int tile, int m) : tile_(&set.tiles.at(static_cast<std::size_t>(tile))) {
+        m_ = std::min(std::max(m, 0), tile_->k - 1);
+        size_ = tile_->levelSize(m_);
+        collapsed_.resize(static_cast<std::size_t>(size_ + 2));
+        stamp_.assign(static_cast<std::size_t>(size_ + 2), 0);
+    }
+    /// Starts the row at v and collapses the columns that the points us read (u and v clamped
+    /// into [0, 1], as dmSubpatch). Throws ArgumentError for a value that is not finite.
+    void setRow(real v, std::span<const real> us) {
+        if (!std::isfinite(v)) throw ArgumentError("tile row: v is not finite");
+        glm::ivec2 cell;
+        const glm::vec<2, real> t = kern::dmSubpatch(glm::vec<2, real>(real(0), v), size_, cell);
+        row_ = cell.y;
+        ++row_stamp_;
+        const glm::vec<3, real> bv = kern::dmBSpline2(t.y), dbv = kern::dmBSpline2D1(t.y);
+        const std::size_t stride = static_cast<std::size_t>(size_ + 2);
+        const float* r0 = tile_->level(m_) + static_cast<std::size_t>(row_) * stride;
+        for (const real u : us) {
+            if (!std::isfinite(u)) throw ArgumentError("tile row: u is not finite");
+            kern::dmSubpatch(glm::vec<2, real>(u, v), size_, cell);
+            for (int q = 0; q < 3; ++q) {
+                const std::size_t x = static_cast<std::size_t>(cell.x + q);
+                if (stamp_[x] == row_stamp_) continue;
+                stamp_[x] = row_stamp_;
+                const glm::vec<3, real> column(static_cast<real>(r0[x]), static_cast<real>(r0[x + stride]),
+                                               static_cast<real>(r0[x + 2 * stride]));
+                collapsed_[x] = glm::vec<2, real>(kern::dmDot3(column, bv), kern::dmDot3(column, dbv));
+            }
+        }
+    }
+    /// (D, D_u, D_v) at (u, v) with respect to the face's (u, v). Throws ArgumentError for u not
+    /// finite or reading a column setRow() did not collapse (u not among its points, or no
+    /// setRow()).
+    vec3 at(real u) {
+        if (!std::isfinite(u)) throw ArgumentError("tile row: u is not finite");
+        glm::ivec2 cell;
+        const glm::vec<2, real> t = kern::dmSubpatch(glm::vec<2, real>(u, real(0)), size_, cell);
+        vec3 c(0), cv(0); // the three columns collapsed along v: values and v derivatives
+        for (int q = 0; q < 3; ++q) {
+            const std::size_t x = static_cast<std::size_t>(cell.x + q);
+            if (stamp_[x] != row_stamp_ || row_stamp_ == 0)
+                throw ArgumentError("tile row: u = " + std::to_string(double(u)) + " reads a column its row did not collapse");
+            c[q] = collapsed_[x].x;
+            cv[q] = collapsed_[x].y;
+        }
+        const real s = real(size_);
+        return vec3(kern::dmDot3(c, kern::dmBSpline2(t.x)), kern::dmDot3(c, kern::dmBSpline2D1(t.x)) * s,
+                    kern::dmDot3(cv, kern::dmBSpline2(t.x)) * s);
+    }
+
+  private:
+    const Tile* tile_;
+    int m_ = 0, size_ = 1, row_ = 0;
+    std::uint32_t row_stamp_ = 0; ///< rows started; a column is collapsed for this row when its stamp equals it
+    std::vector<glm::vec<2, real>> collapsed_;
+    std::vector<std::uint32_t> stamp_;
 };
 
 inline PackedTiles TileSet::pack() const {

@@ -35,6 +35,7 @@
 #include <opensubdiv/far/primvarRefiner.h>
 
 #include "dispmap/kernels/normal.h"
+#include "dispmap/kernels/patch.h"
 #include "dispmap/surface/mesh.h"
 #include "dispmap/surface/tile_topology.h"
 
@@ -124,6 +125,10 @@ class BaseSurface {
     /// for a face id out of range, a hole, or (u, v) outside [0, 1]^2 or not finite.
     template <typename real> BaseSample<real> evaluate(int face, real u, real v, bool second = true) const;
 
+    /// s, s_u and s_v along one row v = const of a Ptex face, for many u (a tessellation's
+    /// grid): see BaseSurface::Row below.
+    template <typename real> class Row;
+
     /// §5.4: the four corners of the end-cap patch holding (face, u, v), each evaluated (with
     /// second derivatives) in the patch beyond that corner, for normals interpolated across the
     /// end cap (DisplacedSurface). False, with `out` untouched, where a regular patch holds the
@@ -175,6 +180,97 @@ class BaseSurface {
     std::string name_;
     std::uint64_t topologyHash_ = 0;
 };
+
+/// s, s_u and s_v along one row v = const of a Ptex face, for many u. Each regular patch the
+/// row crosses is collapsed once along v: its 4 x 4 control points weighted by the v basis
+/// (kernels/patch.h, boundary rule included) and by its derivative give 8 points, and each u
+/// then sums 4 of them with the u basis, where evaluate() gathers 16 control points and runs
+/// OpenSubdiv's EvaluateBasis (a quarter of a tessellation's time). The result is
+/// evaluate(face, u, v, false) to rounding, not bit for bit: the same products summed in
+/// another order, and the basis of kernels/patch.h, which agrees with EvaluateBasis to a few
+/// units in the last place (tests/test_packed_surface.cpp); tests/test_surface.cpp bounds the
+/// difference. Points in end-cap patches are left to evaluate(): at() returns false there.
+/// The row keeps a pointer to the surface; one row per thread.
+template <typename real> class BaseSurface::Row {
+  public:
+    using vec3 = glm::vec<3, real>;
+    /// Throws ArgumentError for a face id out of range, a hole, or v outside [0, 1] or not finite.
+    Row(const BaseSurface& surface, int face, real v) : surface_(&surface), face_(face), v_(v) {
+        surface.checkPoint(face, real(0), v);
+        if (surface.isHole(face)) throw ArgumentError(surface.name_ + ": face " + std::to_string(face) + " is a hole (no surface to evaluate)");
+    }
+    /// s, s_u, s_v at (u, v) into out (second derivatives and the §5.4 blend data left 0), or
+    /// false, with out untouched, where an end-cap patch holds the point. Throws ArgumentError
+    /// for u outside [0, 1] or not finite.
+    bool at(real u, BaseSample<real>& out);
+
+  private:
+    void collapse(const Far::PatchTable::PatchHandle& h);
+    const BaseSurface* surface_;
+    int face_;
+    real v_;
+    const Far::PatchTable::PatchHandle* patch_ = nullptr; ///< the patch collapsed last
+    bool regular_ = false;
+    vec3 q_[4], qv_[4]; ///< per column j: sum_i b_i P_4i+j and sum_i 2^L b'_i P_4i+j
+    real lo_ = 0, hi_ = 0; ///< the collapsed patch's span in u
+    real scale_ = 1;    ///< 2^L
+    real offset_ = 0;   ///< the patch's U
+    bool low_ = false, high_ = false; ///< boundary rule at u = 0 and u = 1 of the patch
+};
+
+template <typename real> void BaseSurface::Row<real>::collapse(const Far::PatchTable::PatchHandle& h) {
+    patch_ = &h;
+    const Far::PatchTable& table = *surface_->table_;
+    const Far::PatchParam param = table.GetPatchParam(h);
+    const Far::ConstIndexArray cv = table.GetPatchVertices(h);
+    const glm::uvec2 packed(param.field0, param.field1);
+    const real frac = real(1) / real(1 << kern::dmPatchDomainLevel(packed)); // a power of two: exact
+    lo_ = real(kern::dmPatchOffset(packed).x) * frac;
+    hi_ = lo_ + frac;
+    regular_ = param.IsRegular() && cv.size() == 16;
+    if (!regular_) return;
+    const int b = kern::dmPatchBoundary(packed);
+    low_ = (b & 8) != 0;
+    high_ = (b & 2) != 0;
+    scale_ = real(1 << kern::dmPatchDomainLevel(packed));
+    offset_ = real(kern::dmPatchOffset(packed).x);
+    const real t = kern::dmPatchLocal(packed, glm::vec<2, real>(real(0), v_)).y;
+    const glm::vec<4, real> bt = kern::dmFoldBoundary(kern::dmBSpline3(t), (b & 1) != 0, (b & 4) != 0);
+    const glm::vec<4, real> bdt = kern::dmFoldBoundary(kern::dmBSpline3D1(t), (b & 1) != 0, (b & 4) != 0) * scale_;
+    const std::vector<vec3>& P = surface_->points<real>();
+    for (int j = 0; j < 4; ++j) {
+        q_[j] = vec3(0);
+        qv_[j] = vec3(0);
+        for (int i = 0; i < 4; ++i) {
+            const vec3& x = P[static_cast<std::size_t>(cv[4 * i + j])];
+            q_[j] += bt[i] * x;
+            qv_[j] += bdt[i] * x;
+        }
+    }
+}
+
+template <typename real> bool BaseSurface::Row<real>::at(real u, BaseSample<real>& out) {
+    surface_->checkPoint(face_, u, v_);
+    // The patch of the last point holds u too when u is in its square's span [lo, hi) (the
+    // quadtree sends a point on a split to the upper half; hi = 1 is closed): PatchMap would
+    // find the same patch.
+    if (!(patch_ && u >= lo_ && (u < hi_ || (u == hi_ && hi_ == real(1))))) {
+        const Far::PatchTable::PatchHandle* h = surface_->map_->FindPatch(face_, static_cast<double>(u), static_cast<double>(v_));
+        if (!h) throw ArgumentError(surface_->name_ + ": face " + std::to_string(face_) + " is a hole (no surface to evaluate)");
+        if (h != patch_) collapse(*h);
+    }
+    if (!regular_) return false;
+    const real s = u * scale_ - offset_; // dmPatchLocal: exact
+    const glm::vec<4, real> bs = kern::dmFoldBoundary(kern::dmBSpline3(s), low_, high_);
+    const glm::vec<4, real> bds = kern::dmFoldBoundary(kern::dmBSpline3D1(s), low_, high_) * scale_;
+    out = BaseSample<real>{};
+    for (int j = 0; j < 4; ++j) {
+        out.p += bs[j] * q_[j];
+        out.du += bds[j] * q_[j];
+        out.dv += bs[j] * qv_[j];
+    }
+    return true;
+}
 
 namespace detail {
 /// The vertex type OpenSubdiv's primvar refiner and stencils interpolate.

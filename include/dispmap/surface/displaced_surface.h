@@ -38,6 +38,8 @@
 #include <limits>
 #include <memory>
 #include <mutex>
+#include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -151,12 +153,25 @@ class DisplacedSurface {
     void evaluateBatch(const std::vector<SurfacePoint<real>>& points, NormalMode mode, std::vector<SurfaceSample<real>>& out,
                        int threads = 0, real rho = real(kFinest)) const;
 
+    /// evaluate() on the grid us[i] x vs[j] of one Ptex face, row by row (a tessellation's
+    /// inner grid): sink(i, j, sample) once per point, in row order, with the resolution
+    /// rhoAt(i, j). Where approximate normals are used and a regular patch holds the point, the
+    /// base surface comes from BaseSurface::Row (each patch collapsed once per row); there the
+    /// sample is evaluate()'s to rounding, not bit for bit (tests/test_surface.cpp bounds it).
+    /// Elsewhere (accurate normals, end caps, a degenerate s_u x s_v) it is evaluate() itself.
+    /// Throws as evaluate() for a face out of range, a hole, a coordinate outside [0, 1] or not
+    /// finite, or a NaN rho, at the first such point (the points before it were delivered).
+    template <typename real, typename RhoAt, typename Sink>
+    void evaluateGrid(int face, std::span<const real> us, std::span<const real> vs, NormalMode mode, RhoAt&& rhoAt, Sink&& sink) const;
+
   private:
     /// The checks of displacement() (evaluate leaves (u, v) and holes to BaseSurface).
     template <typename real> void check(int face, real u, real v, real rho, bool uv) const;
     /// D of the tiles (levels blended), and with the sharp-feature fade applied.
     template <typename real> glm::vec<3, real> displacementAt(int face, real u, real v, real rho) const;
     template <typename real> glm::vec<3, real> featheredAt(int face, real u, real v, real rho) const;
+    /// d1 (D of the tiles at (face, u, v)) with the sharp-feature fade applied.
+    template <typename real> glm::vec<3, real> feathered(int face, real u, real v, const glm::vec<3, real>& d1) const;
     /// N_s and the displaced normal (frame du, dv) of the mode at one base sample.
     template <typename real>
     glm::vec<3, real> displacedNormal(const BaseSample<real>& s, glm::vec<2, real> uv, const glm::vec<3, real>& d1, bool accurate,
@@ -212,7 +227,10 @@ template <typename real> glm::vec<3, real> DisplacedSurface::displacementAt(int 
 }
 
 template <typename real> glm::vec<3, real> DisplacedSurface::featheredAt(int face, real u, real v, real rho) const {
-    const glm::vec<3, real> d1 = displacementAt(face, u, v, rho);
+    return feathered(face, u, v, displacementAt(face, u, v, rho));
+}
+
+template <typename real> glm::vec<3, real> DisplacedSurface::feathered(int face, real u, real v, const glm::vec<3, real>& d1) const {
     const int mask = base_->sharpMask(face);
     if (mask == 0) return d1;
     return kern::dmSharpFeather(glm::vec<2, real>(u, v), mask, base_->topology().scale(face), static_cast<real>(sharpBand_),
@@ -279,6 +297,73 @@ SurfaceSample<real> DisplacedSurface::evaluate(int face, real u, real v, NormalM
     out.displacement = d1;
     out.accurate = accurate;
     return out;
+}
+
+template <typename real, typename RhoAt, typename Sink>
+void DisplacedSurface::evaluateGrid(int face, std::span<const real> us, std::span<const real> vs, NormalMode mode, RhoAt&& rhoAt,
+                                    Sink&& sink) const {
+    using vec3 = glm::vec<3, real>;
+    base_->checkedFace(face);
+    const bool accurate = mode == NormalMode::Accurate ||
+                          (mode == NormalMode::Auto && autoAnalysis().accurate[static_cast<std::size_t>(face)] != 0);
+    // D of the finest level along the row, where displacementAt() reads level 0 alone (rho >=
+    // k and no smaller tile at a corner).
+    const Tile& tile = tiles_->tiles[static_cast<std::size_t>(face)];
+    std::optional<TileSet::Row<real>> dRow;
+    if ((tile.sizeDifferences[0] | tile.sizeDifferences[1] | tile.sizeDifferences[2] | tile.sizeDifferences[3]) == 0)
+        dRow.emplace(*tiles_, face, 0);
+    // A row's points in stages, each a short loop over independent points, so that the square
+    // roots and divisions of several points overlap (one point's normal is a chain of two).
+    struct Point {
+        BaseSample<real> s;
+        vec3 d1{0}, N{0}, n{0}, fu{0}, fv{0};
+        real rho = 0;
+        bool grid = false; ///< the row's route; false: evaluate()
+    };
+    std::vector<Point> row(us.size());
+    for (std::size_t j = 0; j < vs.size(); ++j) {
+        const real v = vs[j];
+        std::optional<BaseSurface::Row<real>> baseRow;
+        if (!accurate) baseRow.emplace(*base_, face, v);
+        if (dRow) dRow->setRow(v, us);
+        // 1. Checks, s and D. evaluate()'s route for approximate normals in a regular patch
+        // (no end-cap or §5.4 data there), unless s_u x s_v vanishes and its fallback needs s_uu.
+        for (std::size_t i = 0; i < us.size(); ++i) {
+            Point& p = row[i];
+            const real u = us[i];
+            p.rho = rhoAt(i, j);
+            check(face, u, v, p.rho, true);
+            p.grid = baseRow && baseRow->at(u, p.s);
+            if (p.grid) {
+                const vec3 n0 = glm::cross(p.s.du, p.s.dv);
+                p.grid = kern::dmDot3(n0, n0) > real(0);
+            }
+            if (p.grid) p.d1 = dRow && p.rho >= real(tile.k) ? feathered(face, u, v, dRow->at(u)) : featheredAt(face, u, v, p.rho);
+        }
+        // 2. N_s, 3. the displaced normal (displacedNormal()'s two steps).
+        const vec3 fallback(real(0), real(0), real(1));
+        for (std::size_t i = 0; i < us.size(); ++i)
+            if (Point& p = row[i]; p.grid) p.N = kern::dmBaseNormal(p.s.du, p.s.dv, p.s.duu, p.s.duv, p.s.dvv, glm::vec<2, real>(us[i], v), fallback);
+        for (std::size_t i = 0; i < us.size(); ++i)
+            if (Point& p = row[i]; p.grid) p.n = kern::dmDisplacedNormalApprox(p.s.du, p.s.dv, p.N, p.d1, p.fu, p.fv);
+        // 4. Delivered in order.
+        for (std::size_t i = 0; i < us.size(); ++i) {
+            const Point& p = row[i];
+            if (!p.grid) {
+                sink(i, j, evaluate<real>(face, us[i], v, mode, p.rho));
+                continue;
+            }
+            SurfaceSample<real> out;
+            out.position = p.s.p + p.N * p.d1.x;
+            out.normal = p.n;
+            out.du = p.fu;
+            out.dv = p.fv;
+            out.baseNormal = p.N;
+            out.displacement = p.d1;
+            out.accurate = false;
+            sink(i, j, out);
+        }
+    }
 }
 
 template <typename real>

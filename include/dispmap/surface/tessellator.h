@@ -35,9 +35,12 @@
 // the edge), so no triangle spans points out of order. Triangles are counter-clockwise in the
 // face's (u, v) domain, i.e. around s_u x s_v: seen from outside for counter-clockwise faces.
 //
-// Vertices. f and N_f from DisplacedSurface::evaluate<double> in the chosen NormalMode, with
-// the ptex face and (u, v) they were evaluated at (one of the faces that share the vertex) and
-// the resolution rho read. Mip selection:
+// Vertices. f and N_f in the chosen NormalMode, with the ptex face and (u, v) they were
+// evaluated at (one of the faces that share the vertex) and the resolution rho read: a tile's
+// inner grid through DisplacedSurface::evaluateGrid (each patch and tile row collapsed once per
+// grid row: evaluate() to rounding where approximate normals meet a regular patch, evaluate()
+// itself elsewhere), the points on tile edges and corners through DisplacedSurface::evaluate.
+// A shared vertex is evaluated once, so the mesh stays watertight. Mip selection:
 //  * Off: rho = kFinest (the finest level the §4.4 clamp allows).
 //  * TessFactor (§6.2): rho = log2 of the bilinearly interpolated per-vertex factor (dmBilerp of
 //    the tile's four corner values, in base-edge units), minus the tile's scale.
@@ -63,6 +66,7 @@
 // estimate, from the factors alone) exceeds TessellateOptions::maxBytes (kMaxTessellationBytes).
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -680,12 +684,18 @@ inline void Tessellator::tessellate(TriangleMesh& out) const {
         out.triangleFaces.clear();
         out.triangleUVs.clear();
     };
-    clear();
+    // faces and uvs are appended to; the other arrays are resized to their counts below and
+    // every element written, so they keep their contents meanwhile: a tessellation again to the
+    // same counts writes each element once, not zeroes first (growth is zeroed by resize).
+    out.faces.clear();
+    out.uvs.clear();
     const TessellationSize size = estimate();
-    if (size.bytes > options_.maxBytes)
+    if (size.bytes > options_.maxBytes) {
+        clear();
         throw ArgumentError("tessellation: " + std::to_string(size.triangles) + " triangles and up to " + std::to_string(size.vertices) +
                             " vertices would take about " + std::to_string(size.bytes >> 20) + " MiB, more than the limit of " +
                             std::to_string(options_.maxBytes >> 20) + " MiB: lower the factors or the maximum factor");
+    }
     try {
         Build b(out);
         b.corner.assign(static_cast<std::size_t>(topo.vertexCount()), -1);
@@ -731,18 +741,58 @@ inline void Tessellator::tessellate(TriangleMesh& out) const {
             }
         });
         if (options_.normals == NormalMode::Auto) (void)surface_->autoFaces(); // the analysis, once, before the loop
-        // Vertices are independent: each writes its own slot.
-        par.each(n, 256, [&](std::size_t i) {
-            const int face = m.faces[i];
-            const glm::dvec2 uv = m.uvs[i];
-            const double rho = resolution(face, uv.x, uv.y);
-            const SurfaceSample<double> s = surface_->evaluate<double>(face, uv.x, uv.y, options_.normals, rho);
-            m.positions[i] = s.position;
-            m.normals[i] = s.normal;
-            m.resolutions[i] = rho;
+        // Vertices are independent: each writes its own slot. A tile's inner grid goes through
+        // DisplacedSurface::evaluateGrid (each patch collapsed once per row); the vertices on
+        // tile edges and corners, the spans between the grids, one by one.
+        std::vector<std::size_t> spans; // [begin, end) pairs of the vertices outside the grids
+        std::size_t next = 0;
+        for (int t : live) {
+            const Build::TilePlan& tp = b.tiles[static_cast<std::size_t>(t)];
+            if (tp.allOne) continue;
+            spans.push_back(next);
+            spans.push_back(static_cast<std::size_t>(tp.grid));
+            next = static_cast<std::size_t>(tp.grid) + static_cast<std::size_t>(tp.nu - 1) * static_cast<std::size_t>(tp.nv - 1);
+        }
+        spans.push_back(next);
+        spans.push_back(n);
+        std::atomic<bool> nonFinite{false};
+        auto flag = [&](const SurfaceSample<double>& s) {
+            const glm::dvec3 &p = s.position, &q = s.normal;
+            if (!std::isfinite(p.x + p.y + p.z + q.x + q.y + q.z)) nonFinite.store(true, std::memory_order_relaxed);
+        };
+        par.each(spans.size() / 2, 4, [&](std::size_t k) {
+            for (std::size_t i = spans[2 * k]; i < spans[2 * k + 1]; ++i) {
+                const int face = m.faces[i];
+                const glm::dvec2 uv = m.uvs[i];
+                const double rho = resolution(face, uv.x, uv.y);
+                const SurfaceSample<double> s = surface_->evaluate<double>(face, uv.x, uv.y, options_.normals, rho);
+                m.positions[i] = s.position;
+                m.normals[i] = s.normal;
+                m.resolutions[i] = rho;
+                flag(s);
+            }
         });
-        // The first vertex in index order that is not finite is named, whatever the thread count.
-        for (std::size_t i = 0; i < n; ++i)
+        par.each(live.size(), 1, [&](std::size_t k) {
+            const int t = live[k];
+            const Build::TilePlan& tp = b.tiles[static_cast<std::size_t>(t)];
+            if (tp.allOne) return;
+            // The grid's coordinates as emit() wrote them: u along its first row, v down its first column.
+            const std::size_t first = static_cast<std::size_t>(tp.grid), row = static_cast<std::size_t>(tp.nu - 1);
+            std::vector<double> us(row), vs(static_cast<std::size_t>(tp.nv - 1));
+            for (std::size_t i = 0; i < us.size(); ++i) us[i] = m.uvs[first + i].x;
+            for (std::size_t j = 0; j < vs.size(); ++j) vs[j] = m.uvs[first + j * row].y;
+            surface_->evaluateGrid<double>(
+                t, us, vs, options_.normals,
+                [&](std::size_t i, std::size_t j) { return m.resolutions[first + j * row + i] = resolution(t, us[i], vs[j]); },
+                [&](std::size_t i, std::size_t j, const SurfaceSample<double>& s) {
+                    m.positions[first + j * row + i] = s.position;
+                    m.normals[first + j * row + i] = s.normal;
+                    flag(s);
+                });
+        });
+        // The first vertex in index order that is not finite is named, whatever the thread count
+        // (looked for only when a task saw one).
+        for (std::size_t i = 0; nonFinite.load(std::memory_order_relaxed) && i < n; ++i)
             if (const glm::dvec3 &p = m.positions[i], &q = m.normals[i]; !std::isfinite(p.x + p.y + p.z + q.x + q.y + q.z))
                 throw Error("tessellation: the surface is not finite at Ptex face " + std::to_string(m.faces[i]) + ", (u, v) = (" +
                             std::to_string(m.uvs[i].x) + ", " + std::to_string(m.uvs[i].y) + ")");
