@@ -47,6 +47,14 @@ ControlMesh denseCage(const std::string& path, const std::string& name) {
     return ControlMesh(std::move(d));
 }
 
+ControlMesh decimatedCage(const std::string& path, int faces, const std::string& label) {
+    SimplifyOptions so;
+    so.targetFaces = faces;
+    MeshDescription d = simplifiedControlMesh(readDenseMesh(path), so, nullptr);
+    d.name = label + " decimated to " + std::to_string(d.faceSizes.size()) + " triangles";
+    return ControlMesh(std::move(d));
+}
+
 double cageDiagonal(const ControlMesh& mesh) {
     glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
     for (const glm::dvec3& p : mesh.description().positions) {
@@ -352,11 +360,7 @@ void printCagesTable(std::ostream& out, const CagesTableArgs& a) {
     // whole set-up (base surface + tiles + displaced surface) and the memory it holds.
     std::vector<CageRow> target;
     if (!a.quick && std::filesystem::exists(a.denseDir + "/cgal_bunny00.off")) {
-        SimplifyOptions so;
-        so.targetFaces = 52000;
-        MeshDescription d = simplifiedControlMesh(readDenseMesh(a.denseDir + "/cgal_bunny00.off"), so, nullptr);
-        d.name = "bunny decimated to " + std::to_string(d.faceSizes.size()) + " triangles";
-        const ControlMesh named(std::move(d));
+        const ControlMesh named = decimatedCage(a.denseDir + "/cgal_bunny00.off", 52000, "bunny");
         for (bool gregory : {true, false}) {
             rows.push_back(stages(named, "dense", 2, nullptr, gregory));
             print(rows.back());

@@ -25,6 +25,10 @@ void printCagesTable(std::ostream& out, const CagesTableArgs& a);
 /// A dense triangle mesh (OBJ, PLY, OFF: bake/dense_mesh.h's reader and checks) as a control
 /// mesh of triangles.
 ControlMesh denseCage(const std::string& path, const std::string& name);
+/// The dense mesh at `path` decimated to about `faces` triangles (meshoptimizer, as `dispmap
+/// bake` decimates), named "<label> decimated to N triangles": the 52k-triangle cage
+/// is the bunny at 52000.
+ControlMesh decimatedCage(const std::string& path, int faces, const std::string& label);
 /// The diagonal of the bounding box of a cage's vertices.
 double cageDiagonal(const ControlMesh& mesh);
 

@@ -11,7 +11,7 @@ namespace dispmap::figures {
 
 struct EmbreeTableArgs {
     std::string dataDir;  ///< spot_control_mesh.obj, skimage_brick.png, catmark_bishop.obj
-    std::string denseDir; ///< cgal_fandisk.off: the dense-cage row (skipped when absent)
+    std::string denseDir; ///< cgal_fandisk.off, cgal_bunny00.off: the dense-cage rows (each skipped when absent)
     bool quick = false;   ///< Spot only, small tiles and factors (CI)
     std::string csv;      ///< also write the table as CSV
 };
