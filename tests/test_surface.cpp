@@ -1344,14 +1344,14 @@ template <typename real> std::vector<real> gridCoordinates() {
 }
 } // namespace
 
-TEMPLATE_TEST_CASE("base surface rows: each regular patch collapsed once per row equals evaluate() to rounding", "[surface][grid]",
+TEMPLATE_TEST_CASE("base surface rows and columns: each regular patch collapsed once per line equals evaluate() to rounding", "[surface][grid]",
                    float, double) {
     // BaseSurface::Row sums the same products as evaluate() (the basis of kernels/patch.h,
     // which is EvaluateBasis to a few ulps) in another order: v first, then u. Each result is
     // then within K eps of the condition of its sum, sum_i |w_i| |P_i| with Far's weights
     // (the size of the terms that cancel; float rounds the points once more, eps / 2 of the
     // same sum). K = 16: a 4-term and a 4-term sum with the basis's own rounding, in each of
-    // the two routes. Measured worst: 3.5 (float) and 3.8 (double) for positions, 2.1 and 2.2
+    // the two routes. Measured worst: 3.6 (float) and 4.0 (double) for positions, 2.1 and 2.2
     // for derivatives (DISPMAP_SURFACE_REPORT=1 prints them). Where an end cap holds the
     // point, at() returns false and touches nothing.
     using real = TestType;
@@ -1372,46 +1372,48 @@ TEMPLATE_TEST_CASE("base surface rows: each regular patch collapsed once per row
             int regular = 0, endCaps = 0, failures = 0;
             for (int face = 0; face < base.faceCount(); ++face) {
                 if (base.isHole(face)) continue;
-                for (const real v : xs) {
-                    typename BaseSurface::Row<real> row(base, face, v);
-                    for (const real u : xs) {
-                        const Far::PatchTable::PatchHandle* h = map.FindPatch(face, double(u), double(v));
-                        REQUIRE(h != nullptr);
-                        const Far::PatchParam param = T.GetPatchParam(*h);
-                        BaseSample<real> got;
-                        got.evWeight = real(-1); // untouched where false
-                        if (!row.at(u, got)) {
-                            ++endCaps;
-                            CHECK(!param.IsRegular());
-                            CHECK(got.evWeight == real(-1));
-                            continue;
-                        }
-                        ++regular;
-                        CHECK(param.IsRegular());
-                        const BaseSample<real> want = base.evaluate<real>(face, u, v, false);
-                        double w[20], wu[20], wv[20];
-                        T.EvaluateBasis(*h, double(u), double(v), w, wu, wv);
-                        const Far::ConstIndexArray cv = T.GetPatchVertices(*h);
-                        const double fix = param.NonQuadRoot() ? 0.5 : 1.0; // Far's 2^depth on sub-faces (base_surface.h)
-                        double c0 = 0, cu = 0, cvv = 0;
-                        for (int i = 0; i < cv.size(); ++i) {
-                            const double x = glm::length(P[static_cast<std::size_t>(cv[i])]);
-                            c0 += std::abs(w[i]) * x;
-                            cu += std::abs(wu[i]) * fix * x;
-                            cvv += std::abs(wv[i]) * fix * x;
-                        }
-                        const double e0 = glm::length(dvec3(got.p) - dvec3(want.p)) / (eps * c0);
-                        const double e1 = std::max(glm::length(dvec3(got.du) - dvec3(want.du)) / (eps * cu),
-                                                   glm::length(dvec3(got.dv) - dvec3(want.dv)) / (eps * cvv));
-                        worst[0] = std::max(worst[0], e0);
-                        worst[1] = std::max(worst[1], e1);
-                        const bool ok = e0 <= K && e1 <= K && got.duu == glm::vec<3, real>(0) && got.evWeight == real(0) && !got.endCap;
-                        if (!ok && failures++ == 0) {
-                            CAPTURE(face, u, v, e0, e1);
-                            CHECK(ok);
+                for (const bool alongV : {false, true})
+                    for (const real fixed : xs) {
+                        typename BaseSurface::Row<real> row(base, face, fixed, alongV);
+                        for (const real x : xs) {
+                            const real u = alongV ? fixed : x, v = alongV ? x : fixed;
+                            const Far::PatchTable::PatchHandle* h = map.FindPatch(face, double(u), double(v));
+                            REQUIRE(h != nullptr);
+                            const Far::PatchParam param = T.GetPatchParam(*h);
+                            BaseSample<real> got;
+                            got.evWeight = real(-1); // untouched where false
+                            if (!row.at(x, got)) {
+                                ++endCaps;
+                                CHECK(!param.IsRegular());
+                                CHECK(got.evWeight == real(-1));
+                                continue;
+                            }
+                            ++regular;
+                            CHECK(param.IsRegular());
+                            const BaseSample<real> want = base.evaluate<real>(face, u, v, false);
+                            double w[20], wu[20], wv[20];
+                            T.EvaluateBasis(*h, double(u), double(v), w, wu, wv);
+                            const Far::ConstIndexArray cv = T.GetPatchVertices(*h);
+                            const double fix = param.NonQuadRoot() ? 0.5 : 1.0; // Far's 2^depth on sub-faces (base_surface.h)
+                            double c0 = 0, cu = 0, cvv = 0;
+                            for (int i = 0; i < cv.size(); ++i) {
+                                const double len = glm::length(P[static_cast<std::size_t>(cv[i])]);
+                                c0 += std::abs(w[i]) * len;
+                                cu += std::abs(wu[i]) * fix * len;
+                                cvv += std::abs(wv[i]) * fix * len;
+                            }
+                            const double e0 = glm::length(dvec3(got.p) - dvec3(want.p)) / (eps * c0);
+                            const double e1 = std::max(glm::length(dvec3(got.du) - dvec3(want.du)) / (eps * cu),
+                                                       glm::length(dvec3(got.dv) - dvec3(want.dv)) / (eps * cvv));
+                            worst[0] = std::max(worst[0], e0);
+                            worst[1] = std::max(worst[1], e1);
+                            const bool ok = e0 <= K && e1 <= K && got.duu == glm::vec<3, real>(0) && got.evWeight == real(0) && !got.endCap;
+                            if (!ok && failures++ == 0) {
+                                CAPTURE(face, u, v, alongV, e0, e1);
+                                CHECK(ok);
+                            }
                         }
                     }
-                }
             }
             CHECK(failures == 0);
             CHECK(regular > 0);
@@ -1437,11 +1439,15 @@ TEMPLATE_TEST_CASE("base surface rows: each regular patch collapsed once per row
     BaseSample<real> s;
     CHECK_THROWS_WITH(row.at(real(-0.25), s), Contains("is not in [0, 1]^2"));
     CHECK_THROWS_AS(row.at(nan, s), ArgumentError);
+    CHECK_THROWS_WITH((typename BaseSurface::Row<real>(base, 0, real(-0.5), true)), Contains("(-0.500000, 0.000000)"));
+    typename BaseSurface::Row<real> column(base, 0, real(0.5), true);
+    CHECK_THROWS_WITH(column.at(real(2), s), Contains("(0.500000, 2.000000)"));
 }
 
-TEMPLATE_TEST_CASE("tile rows: three coefficient rows collapsed once per row equal evaluateD1 to rounding", "[surface][grid]", float,
+TEMPLATE_TEST_CASE("tile rows and columns: three coefficient lines collapsed once per line equal evaluateD1 to rounding", "[surface][grid]", float,
                    double) {
-    // TileSet::Row sums the 9 products of evaluateD1 v first, then u. Each result is within
+    // TileSet::Row sums the 9 products of evaluateD1 across the line first, then along it
+    // (evaluateD1: u first, then v). Each result is within
     // K eps of its condition, sum |w_ij| |c_ij| (the biquadratic weights, derivatives with the
     // level size s), K = 8 (two 3-term sums in each route, the basis rounded alike). Measured
     // worst: 2.7 (float) and 2.2 (double).
@@ -1453,36 +1459,38 @@ TEMPLATE_TEST_CASE("tile rows: three coefficient rows collapsed once per row equ
     double worst = 0;
     int failures = 0;
     for (int t = 0; t < tiles.tileCount(); ++t)
-        for (int m = 0; m < tiles.tiles[static_cast<std::size_t>(t)].k; ++m) {
-            typename TileSet::Row<real> row(tiles, t, m);
-            for (const real v : xs) {
-                row.setRow(v, xs);
-                for (const real u : xs) {
-                    const glm::vec<3, real> got = row.at(u), want = tiles.evaluateD1(t, m, glm::vec<2, real>(u, v));
-                    glm::vec<2, real> tl;
-                    real size;
-                    const glm::mat<3, 3, real> c = tiles.subpatch(t, m, glm::vec<2, real>(u, v), tl, size);
-                    const glm::dvec3 bu(kern::dmBSpline2(double(tl.x))), bv(kern::dmBSpline2(double(tl.y)));
-                    const glm::dvec3 du(kern::dmBSpline2D1(double(tl.x))), dv(kern::dmBSpline2D1(double(tl.y)));
-                    double c0 = 0, cu = 0, cv = 0;
-                    for (int i = 0; i < 3; ++i)
-                        for (int j = 0; j < 3; ++j) {
-                            const double a = std::abs(double(c[i][j]));
-                            c0 += std::abs(bu[i] * bv[j]) * a;
-                            cu += std::abs(du[i] * bv[j]) * a * double(size);
-                            cv += std::abs(bu[i] * dv[j]) * a * double(size);
+        for (int m = 0; m < tiles.tiles[static_cast<std::size_t>(t)].k; ++m)
+            for (const bool alongV : {false, true}) {
+                typename TileSet::Row<real> row(tiles, t, m, alongV);
+                for (const real fixed : xs) {
+                    row.setRow(fixed, xs);
+                    for (const real x : xs) {
+                        const real u = alongV ? fixed : x, v = alongV ? x : fixed;
+                        const glm::vec<3, real> got = row.at(x), want = tiles.evaluateD1(t, m, glm::vec<2, real>(u, v));
+                        glm::vec<2, real> tl;
+                        real size;
+                        const glm::mat<3, 3, real> c = tiles.subpatch(t, m, glm::vec<2, real>(u, v), tl, size);
+                        const glm::dvec3 bu(kern::dmBSpline2(double(tl.x))), bv(kern::dmBSpline2(double(tl.y)));
+                        const glm::dvec3 du(kern::dmBSpline2D1(double(tl.x))), dv(kern::dmBSpline2D1(double(tl.y)));
+                        double c0 = 0, cu = 0, cv = 0;
+                        for (int i = 0; i < 3; ++i)
+                            for (int j = 0; j < 3; ++j) {
+                                const double a = std::abs(double(c[i][j]));
+                                c0 += std::abs(bu[i] * bv[j]) * a;
+                                cu += std::abs(du[i] * bv[j]) * a * double(size);
+                                cv += std::abs(bu[i] * dv[j]) * a * double(size);
+                            }
+                        const double e = std::max({std::abs(double(got.x) - double(want.x)) / (eps * c0 + 1e-300),
+                                                   std::abs(double(got.y) - double(want.y)) / (eps * cu + 1e-300),
+                                                   std::abs(double(got.z) - double(want.z)) / (eps * cv + 1e-300)});
+                        worst = std::max(worst, e);
+                        if (!(e <= K) && failures++ == 0) {
+                            CAPTURE(t, m, u, v, alongV, e);
+                            CHECK(e <= K);
                         }
-                    const double e = std::max({std::abs(double(got.x) - double(want.x)) / (eps * c0 + 1e-300),
-                                               std::abs(double(got.y) - double(want.y)) / (eps * cu + 1e-300),
-                                               std::abs(double(got.z) - double(want.z)) / (eps * cv + 1e-300)});
-                    worst = std::max(worst, e);
-                    if (!(e <= K) && failures++ == 0) {
-                        CAPTURE(t, m, u, v, e);
-                        CHECK(e <= K);
                     }
                 }
             }
-        }
     CHECK(failures == 0);
     report("tile rows (%s) vs evaluateD1, worst in eps of the sum's condition: %.2f\n", sizeof(real) == 8 ? "double" : "float", worst);
     using Catch::Matchers::Contains;
@@ -1492,6 +1500,9 @@ TEMPLATE_TEST_CASE("tile rows: three coefficient rows collapsed once per row equ
     row.setRow(real(0.5), some);
     CHECK_NOTHROW(row.at(real(0.3)));
     CHECK_THROWS_WITH(row.at(real(0.9)), Contains("did not collapse"));
+    typename TileSet::Row<real> column(tiles, 0, 0, true);
+    column.setRow(real(0.5), some);
+    CHECK_THROWS_WITH(column.at(real(0.9)), Contains("did not collapse"));
     CHECK_THROWS_AS(row.at(std::numeric_limits<real>::quiet_NaN()), ArgumentError);
     CHECK_THROWS_AS(row.setRow(std::numeric_limits<real>::infinity(), some), ArgumentError);
     const std::vector<real> nan = {std::numeric_limits<real>::quiet_NaN()};
@@ -1501,13 +1512,14 @@ TEMPLATE_TEST_CASE("tile rows: three coefficient rows collapsed once per row equ
 
 TEST_CASE("grid evaluation equals evaluate() to rounding, and is evaluate() itself off the row route", "[surface][grid]") {
     // evaluateGrid routes approximate normals in regular patches through the two rows above
-    // and evaluates every other point with evaluate(): those must be equal bit for bit, the
-    // row-routed ones to rounding. Bounds: positions 1e-13 of the mesh's extent (measured
+    // (rows, or columns where the grid has more rows than columns, as a tile's edges u = 0 and
+    // 1) and evaluates every other point with evaluate(): those must be equal bit for bit, the
+    // line-routed ones to rounding. Bounds: positions 1e-13 of the mesh's extent (measured
     // worst 4.4e-15: the rows' rounding, a few eps of coordinates of size ~extent); normals
     // 1e-10 rad (measured 7.1e-13: the normal's rounding error grows with |D_u| / |s_u| and
     // with 1 / sin of the angle between s_u and s_v).
     double worstP = 0, worstN = 0;
-    int rowRouted = 0, pointRouted = 0;
+    int rowRouted = 0, pointRouted = 0, rowPoints = 0, columnPoints = 0;
     for (const char* name : {"catmark_nonquads", "catmark_pole8", "catmark_xord_boundary", "catmark_edgecorner", "catmark_helmet",
                              "catmark_dart_edgecorner", "catmark_hole_test1", "spot_control_mesh"})
         for (const bool mixed : {false, true}) {
@@ -1519,7 +1531,7 @@ TEST_CASE("grid evaluation equals evaluate() to rounding, and is evaluate() itse
                 return 0.02 * extent * waves(f, u, v);
             });
             const DisplacedSurface surface(base, tiles);
-            const std::vector<double> xs = gridCoordinates<double>();
+            const std::vector<double> xs = gridCoordinates<double>(), few = {0.0, 0.3, 0.5, 0.61, 1.0};
             // Resolutions: the finest level, and blends of coarser ones varying over the grid.
             const auto rhoOf = [&](int which, std::size_t i, std::size_t j) {
                 return which == 0 ? kFinest : 1.3 + 0.21 * double(i % 7) + 0.17 * double(j % 5);
@@ -1536,20 +1548,26 @@ TEST_CASE("grid evaluation equals evaluate() to rounding, and is evaluate() itse
                                               Catch::Contains("is a hole"));
                             continue;
                         }
+                        // Square grids go row by row; grids with more rows than columns (a
+                        // tile's edge u = 0 or 1 among them) column by column.
+                        for (const auto& [us, vs] : {std::pair(xs, xs), std::pair(few, xs), std::pair(std::vector<double>{1.0}, xs),
+                                                     std::pair(xs, std::vector<double>{0.0})}) {
                         std::size_t expected = 0;
+                        const bool columns = vs.size() > us.size();
                         surface.evaluateGrid<double>(
-                            face, xs, xs, mode, [&](std::size_t i, std::size_t j) { return rhoOf(which, i, j); },
+                            face, us, vs, mode, [&](std::size_t i, std::size_t j) { return rhoOf(which, i, j); },
                             [&](std::size_t i, std::size_t j, const SurfaceSample<double>& got) {
-                                const bool inOrder = j * xs.size() + i == expected++;
-                                const double u = xs[i], v = xs[j], rho = rhoOf(which, i, j);
+                                const bool inOrder = (columns ? i * vs.size() + j : j * us.size() + i) == expected++;
+                                const double u = us[i], v = vs[j], rho = rhoOf(which, i, j);
                                 const SurfaceSample<double> want = surface.evaluate<double>(face, u, v, mode, rho);
                                 const bool same = got.position == want.position && got.normal == want.normal && got.du == want.du &&
                                                   got.dv == want.dv && got.baseNormal == want.baseNormal &&
                                                   got.displacement == want.displacement && got.accurate == want.accurate;
-                                // The row route: approximate normals in a regular patch.
+                                // The line route: approximate normals in a regular patch.
                                 BaseSample<double> probe;
                                 typename BaseSurface::Row<double> row(base, face, v);
                                 const bool routed = !want.accurate && row.at(u, probe);
+                                ++(columns ? columnPoints : rowPoints);
                                 const double dp = glm::length(got.position - want.position) / extent,
                                              dn = angleBetween(got.normal, want.normal);
                                 bool ok = inOrder && got.accurate == want.accurate;
@@ -1567,14 +1585,17 @@ TEST_CASE("grid evaluation equals evaluate() to rounding, and is evaluate() itse
                                     CHECK(ok);
                                 }
                             });
-                        CHECK(expected == xs.size() * xs.size());
+                        CHECK(expected == us.size() * vs.size());
+                        }
                     }
                     CHECK(failures == 0);
                 }
         }
     CHECK(rowRouted > 0);
     CHECK(pointRouted > 0);
-    report("grid evaluation vs evaluate: %d points by rows (worst position %.3g of the extent, normal %.3g rad), %d by points, equal\n",
+    CHECK(rowPoints > 0);
+    CHECK(columnPoints > 0);
+    report("grid evaluation vs evaluate: %d points by lines (worst position %.3g of the extent, normal %.3g rad), %d by points, equal\n",
            rowRouted, worstP, worstN, pointRouted);
 
     // Bad input: the first bad point of a row throws before any point of that row is delivered.

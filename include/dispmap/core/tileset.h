@@ -300,72 +300,85 @@ class TileSet {
     template <typename real> class Row;
 };
 
-/// (D, D_u, D_v) of one level of one tile along a row v = const, for many u (a tessellation's
-/// grid). The three coefficient rows the row reads are collapsed once per column with the v
-/// basis and its derivative (the columns the row's points read, each once), so each u sums
-/// 3 + 3 collapsed values with the u basis where evaluateD1 gathers 9 coefficients and
+/// (D, D_u, D_v) of one level of one tile along a row v = const, for many u, or along a
+/// column u = const, for many v (alongV). The three coefficient rows (columns) the line reads
+/// are collapsed once per texel across it with the basis of the fixed coordinate and its
+/// derivative (the texels the line's points read, each once), so each point sums 3 + 3
+/// collapsed values with the basis along the line where evaluateD1 gathers 9 coefficients and
 /// multiplies twice. The result is evaluateD1(tile, m, (u, v)) to rounding, not bit for bit
-/// (the same 9 products summed v first, where dmBiquadraticD1 sums u first). The row keeps a
-/// pointer to the set; one per thread. setRow() starts a row, at() reads it.
+/// (the same 9 products summed in another order). The row keeps a pointer to the set; one per
+/// thread. setRow() starts a line, at() reads it.
 template <typename real> class TileSet::Row {
   public:
     using vec3 = glm::vec<3, real>;
-    /// Level m of `tile` (clamped to the tile's levels, as subpatch()). Throws std::out_of_range
-    /// for a tile index out of range, as tiles.at().
-    Row(const TileSet& set, int tile, int m) : tile_(&set.tiles.at(static_cast<std::size_t>(tile))) {
+    /// Level m of `tile` (clamped to the tile's levels, as subpatch()), along u (rows) or along
+    /// v (columns). Throws std::out_of_range for a tile index out of range, as tiles.at().
+    Row(const TileSet& set, int tile, int m, bool alongV = false)
+        : tile_(&set.tiles.at(static_cast<std::size_t>(tile))), alongV_(alongV) {
         m_ = std::min(std::max(m, 0), tile_->k - 1);
         size_ = tile_->levelSize(m_);
         collapsed_.resize(static_cast<std::size_t>(size_ + 2));
         stamp_.assign(static_cast<std::size_t>(size_ + 2), 0);
     }
-    /// Starts the row at v and collapses the columns that the points us read (u and v clamped
-    /// into [0, 1], as dmSubpatch). Throws ArgumentError for a value that is not finite.
-    void setRow(real v, std::span<const real> us) {
-        if (!std::isfinite(v)) throw ArgumentError("tile row: v is not finite");
+    /// Starts the line at `fixed` (v of a row, u of a column) and collapses the texels that its
+    /// points xs read (coordinates clamped into [0, 1], as dmSubpatch). Throws ArgumentError for
+    /// a value that is not finite.
+    void setRow(real fixed, std::span<const real> xs) {
+        if (!std::isfinite(fixed)) throw ArgumentError("tile row: its fixed coordinate is not finite");
         glm::ivec2 cell;
-        const glm::vec<2, real> t = kern::dmSubpatch(glm::vec<2, real>(real(0), v), size_, cell);
-        row_ = cell.y;
-        ++row_stamp_;
-        const glm::vec<3, real> bv = kern::dmBSpline2(t.y), dbv = kern::dmBSpline2D1(t.y);
+        const glm::vec<2, real> t = kern::dmSubpatch(glm::vec<2, real>(fixed, fixed), size_, cell);
+        ++line_;
+        const real tf = alongV_ ? t.x : t.y;
+        const glm::vec<3, real> b = kern::dmBSpline2(tf), db = kern::dmBSpline2D1(tf);
         const std::size_t stride = static_cast<std::size_t>(size_ + 2);
-        const float* r0 = tile_->level(m_) + static_cast<std::size_t>(row_) * stride;
-        for (const real u : us) {
-            if (!std::isfinite(u)) throw ArgumentError("tile row: u is not finite");
-            kern::dmSubpatch(glm::vec<2, real>(u, v), size_, cell);
+        // Coefficient (a, c) with a along the line and c = 0..2 across it, from the first of the
+        // three texel rows (columns) the line reads.
+        const std::size_t first = static_cast<std::size_t>(alongV_ ? cell.x : cell.y);
+        const float* level = tile_->level(m_);
+        const std::size_t stepAlong = alongV_ ? stride : 1, stepAcross = alongV_ ? 1 : stride;
+        const float* base = level + first * stepAcross;
+        for (const real x : xs) {
+            if (!std::isfinite(x)) throw ArgumentError("tile row: a point's coordinate is not finite");
+            kern::dmSubpatch(glm::vec<2, real>(x, x), size_, cell);
+            const int c0 = alongV_ ? cell.y : cell.x;
             for (int q = 0; q < 3; ++q) {
-                const std::size_t x = static_cast<std::size_t>(cell.x + q);
-                if (stamp_[x] == row_stamp_) continue;
-                stamp_[x] = row_stamp_;
-                const glm::vec<3, real> column(static_cast<real>(r0[x]), static_cast<real>(r0[x + stride]),
-                                               static_cast<real>(r0[x + 2 * stride]));
-                collapsed_[x] = glm::vec<2, real>(kern::dmDot3(column, bv), kern::dmDot3(column, dbv));
+                const std::size_t a = static_cast<std::size_t>(c0 + q);
+                if (stamp_[a] == line_) continue;
+                stamp_[a] = line_;
+                const float* p = base + a * stepAlong;
+                const glm::vec<3, real> across(static_cast<real>(p[0]), static_cast<real>(p[stepAcross]),
+                                               static_cast<real>(p[2 * stepAcross]));
+                collapsed_[a] = glm::vec<2, real>(kern::dmDot3(across, b), kern::dmDot3(across, db));
             }
         }
     }
-    /// (D, D_u, D_v) at (u, v) with respect to the face's (u, v). Throws ArgumentError for u not
-    /// finite or reading a column setRow() did not collapse (u not among its points, or no
-    /// setRow()).
-    vec3 at(real u) {
-        if (!std::isfinite(u)) throw ArgumentError("tile row: u is not finite");
+    /// (D, D_u, D_v) with respect to the face's (u, v) at the line's point x (u along a row, v
+    /// along a column). Throws ArgumentError for x not finite or reading texels setRow() did not
+    /// collapse (x not among its points, or no setRow()).
+    vec3 at(real x) {
+        if (!std::isfinite(x)) throw ArgumentError("tile row: a point's coordinate is not finite");
         glm::ivec2 cell;
-        const glm::vec<2, real> t = kern::dmSubpatch(glm::vec<2, real>(u, real(0)), size_, cell);
-        vec3 c(0), cv(0); // the three columns collapsed along v: values and v derivatives
+        const glm::vec<2, real> t = kern::dmSubpatch(glm::vec<2, real>(x, x), size_, cell);
+        const int c0 = alongV_ ? cell.y : cell.x;
+        vec3 c(0), cd(0); // the three texels collapsed across the line: values and derivatives across
         for (int q = 0; q < 3; ++q) {
-            const std::size_t x = static_cast<std::size_t>(cell.x + q);
-            if (stamp_[x] != row_stamp_ || row_stamp_ == 0)
-                throw ArgumentError("tile row: u = " + std::to_string(double(u)) + " reads a column its row did not collapse");
-            c[q] = collapsed_[x].x;
-            cv[q] = collapsed_[x].y;
+            const std::size_t a = static_cast<std::size_t>(c0 + q);
+            if (stamp_[a] != line_ || line_ == 0)
+                throw ArgumentError("tile row: the point " + std::to_string(double(x)) + " reads texels its row did not collapse");
+            c[q] = collapsed_[a].x;
+            cd[q] = collapsed_[a].y;
         }
-        const real s = real(size_);
-        return vec3(kern::dmDot3(c, kern::dmBSpline2(t.x)), kern::dmDot3(c, kern::dmBSpline2D1(t.x)) * s,
-                    kern::dmDot3(cv, kern::dmBSpline2(t.x)) * s);
+        const real s = real(size_), tx = alongV_ ? t.y : t.x;
+        const glm::vec<3, real> b = kern::dmBSpline2(tx);
+        const real along = kern::dmDot3(c, kern::dmBSpline2D1(tx)) * s, across = kern::dmDot3(cd, b) * s;
+        return vec3(kern::dmDot3(c, b), alongV_ ? across : along, alongV_ ? along : across);
     }
 
   private:
     const Tile* tile_;
-    int m_ = 0, size_ = 1, row_ = 0;
-    std::uint32_t row_stamp_ = 0; ///< rows started; a column is collapsed for this row when its stamp equals it
+    bool alongV_;
+    int m_ = 0, size_ = 1;
+    std::uint32_t line_ = 0; ///< lines started; a texel is collapsed for this line when its stamp equals it
     std::vector<glm::vec<2, real>> collapsed_;
     std::vector<std::uint32_t> stamp_;
 };

@@ -125,8 +125,8 @@ class BaseSurface {
     /// for a face id out of range, a hole, or (u, v) outside [0, 1]^2 or not finite.
     template <typename real> BaseSample<real> evaluate(int face, real u, real v, bool second = true) const;
 
-    /// s, s_u and s_v along one row v = const of a Ptex face, for many u (a tessellation's
-    /// grid): see BaseSurface::Row below.
+    /// s, s_u and s_v along one row v = const (or column u = const) of a Ptex face, for many
+    /// points (a tessellation's grid and edges): see BaseSurface::Row below.
     template <typename real> class Row;
 
     /// §5.4: the four corners of the end-cap patch holding (face, u, v), each evaluated (with
@@ -181,12 +181,13 @@ class BaseSurface {
     std::uint64_t topologyHash_ = 0;
 };
 
-/// s, s_u and s_v along one row v = const of a Ptex face, for many u. Each regular patch the
-/// row crosses is collapsed once along v: its 4 x 4 control points weighted by the v basis
-/// (kernels/patch.h, boundary rule included) and by its derivative give 8 points, and each u
-/// then sums 4 of them with the u basis, where evaluate() gathers 16 control points and runs
-/// OpenSubdiv's EvaluateBasis (a quarter of a tessellation's time). The result is
-/// evaluate(face, u, v, false) to rounding, not bit for bit: the same products summed in
+/// s, s_u and s_v along one row v = const of a Ptex face, for many u, or along one column
+/// u = const, for many v (alongV). Each regular patch the line crosses is collapsed once across
+/// it: its 4 x 4 control points weighted by the basis of the fixed coordinate (kernels/patch.h,
+/// boundary rule included) and by its derivative give 8 points, and each point of the line
+/// then sums 4 of them with the basis along the line, where evaluate() gathers 16 control
+/// points and runs OpenSubdiv's EvaluateBasis (a quarter of a tessellation's time). The result
+/// is evaluate(face, u, v, false) to rounding, not bit for bit: the same products summed in
 /// another order, and the basis of kernels/patch.h, which agrees with EvaluateBasis to a few
 /// units in the last place (tests/test_packed_surface.cpp); tests/test_surface.cpp bounds the
 /// difference. Points in end-cap patches are left to evaluate(): at() returns false there.
@@ -194,28 +195,31 @@ class BaseSurface {
 template <typename real> class BaseSurface::Row {
   public:
     using vec3 = glm::vec<3, real>;
-    /// Throws ArgumentError for a face id out of range, a hole, or v outside [0, 1] or not finite.
-    Row(const BaseSurface& surface, int face, real v) : surface_(&surface), face_(face), v_(v) {
-        surface.checkPoint(face, real(0), v);
+    /// The row v = `fixed` (or the column u = `fixed` if alongV). Throws ArgumentError for a
+    /// face id out of range, a hole, or `fixed` outside [0, 1] or not finite.
+    Row(const BaseSurface& surface, int face, real fixed, bool alongV = false)
+        : surface_(&surface), face_(face), fixed_(fixed), alongV_(alongV) {
+        surface.checkPoint(face, alongV ? fixed : real(0), alongV ? real(0) : fixed);
         if (surface.isHole(face)) throw ArgumentError(surface.name_ + ": face " + std::to_string(face) + " is a hole (no surface to evaluate)");
     }
-    /// s, s_u, s_v at (u, v) into out (second derivatives and the §5.4 blend data left 0), or
-    /// false, with out untouched, where an end-cap patch holds the point. Throws ArgumentError
-    /// for u outside [0, 1] or not finite.
-    bool at(real u, BaseSample<real>& out);
+    /// s, s_u, s_v at the line's point x (u along a row, v along a column) into out (second
+    /// derivatives and the §5.4 blend data left 0), or false, with out untouched, where an
+    /// end-cap patch holds the point. Throws ArgumentError for x outside [0, 1] or not finite.
+    bool at(real x, BaseSample<real>& out);
 
   private:
     void collapse(const Far::PatchTable::PatchHandle& h);
     const BaseSurface* surface_;
     int face_;
-    real v_;
+    real fixed_;
+    bool alongV_;
     const Far::PatchTable::PatchHandle* patch_ = nullptr; ///< the patch collapsed last
     bool regular_ = false;
-    vec3 q_[4], qv_[4]; ///< per column j: sum_i b_i P_4i+j and sum_i 2^L b'_i P_4i+j
-    real lo_ = 0, hi_ = 0; ///< the collapsed patch's span in u
+    vec3 q_[4], qd_[4]; ///< per control line k along the line: sum_m b_m P and sum_m 2^L b'_m P across it
+    real lo_ = 0, hi_ = 0; ///< the collapsed patch's span along the line
     real scale_ = 1;    ///< 2^L
-    real offset_ = 0;   ///< the patch's U
-    bool low_ = false, high_ = false; ///< boundary rule at u = 0 and u = 1 of the patch
+    real offset_ = 0;   ///< the patch's U (V along a column)
+    bool low_ = false, high_ = false; ///< boundary rule at the line's ends of the patch
 };
 
 template <typename real> void BaseSurface::Row<real>::collapse(const Far::PatchTable::PatchHandle& h) {
@@ -224,51 +228,61 @@ template <typename real> void BaseSurface::Row<real>::collapse(const Far::PatchT
     const Far::PatchParam param = table.GetPatchParam(h);
     const Far::ConstIndexArray cv = table.GetPatchVertices(h);
     const glm::uvec2 packed(param.field0, param.field1);
-    const real frac = real(1) / real(1 << kern::dmPatchDomainLevel(packed)); // a power of two: exact
-    lo_ = real(kern::dmPatchOffset(packed).x) * frac;
+    scale_ = real(1 << kern::dmPatchDomainLevel(packed));
+    const real frac = real(1) / scale_; // a power of two: exact
+    const glm::ivec2 offset = kern::dmPatchOffset(packed);
+    offset_ = real(alongV_ ? offset.y : offset.x);
+    lo_ = offset_ * frac;
     hi_ = lo_ + frac;
     regular_ = param.IsRegular() && cv.size() == 16;
     if (!regular_) return;
+    // Boundary mask: bit 0 the edge v = 0, bit 1 u = 1, bit 2 v = 1, bit 3 u = 0.
     const int b = kern::dmPatchBoundary(packed);
-    low_ = (b & 8) != 0;
-    high_ = (b & 2) != 0;
-    scale_ = real(1 << kern::dmPatchDomainLevel(packed));
-    offset_ = real(kern::dmPatchOffset(packed).x);
-    const real t = kern::dmPatchLocal(packed, glm::vec<2, real>(real(0), v_)).y;
-    const glm::vec<4, real> bt = kern::dmFoldBoundary(kern::dmBSpline3(t), (b & 1) != 0, (b & 4) != 0);
-    const glm::vec<4, real> bdt = kern::dmFoldBoundary(kern::dmBSpline3D1(t), (b & 1) != 0, (b & 4) != 0) * scale_;
+    const bool u0 = (b & 8) != 0, u1 = (b & 2) != 0, v0 = (b & 1) != 0, v1 = (b & 4) != 0;
+    low_ = alongV_ ? v0 : u0;
+    high_ = alongV_ ? v1 : u1;
+    const glm::vec<2, real> local = kern::dmPatchLocal(packed, glm::vec<2, real>(fixed_, fixed_));
+    const real t = alongV_ ? local.x : local.y;
+    const glm::vec<4, real> across = kern::dmFoldBoundary(kern::dmBSpline3(t), alongV_ ? u0 : v0, alongV_ ? u1 : v1);
+    const glm::vec<4, real> dAcross = kern::dmFoldBoundary(kern::dmBSpline3D1(t), alongV_ ? u0 : v0, alongV_ ? u1 : v1) * scale_;
     const std::vector<vec3>& P = surface_->points<real>();
-    for (int j = 0; j < 4; ++j) {
-        q_[j] = vec3(0);
-        qv_[j] = vec3(0);
-        for (int i = 0; i < 4; ++i) {
-            const vec3& x = P[static_cast<std::size_t>(cv[4 * i + j])];
-            q_[j] += bt[i] * x;
-            qv_[j] += bdt[i] * x;
+    // Control point 4i + j: column j along u, row i along v. Along a row the lines k are the
+    // columns (summed over the rows m), along a column the rows.
+    for (int k = 0; k < 4; ++k) {
+        q_[k] = vec3(0);
+        qd_[k] = vec3(0);
+        for (int m = 0; m < 4; ++m) {
+            const vec3& x = P[static_cast<std::size_t>(cv[alongV_ ? 4 * k + m : 4 * m + k])];
+            q_[k] += across[m] * x;
+            qd_[k] += dAcross[m] * x;
         }
     }
 }
 
-template <typename real> bool BaseSurface::Row<real>::at(real u, BaseSample<real>& out) {
-    surface_->checkPoint(face_, u, v_);
-    // The patch of the last point holds u too when u is in its square's span [lo, hi) (the
+template <typename real> bool BaseSurface::Row<real>::at(real x, BaseSample<real>& out) {
+    const real u = alongV_ ? fixed_ : x, v = alongV_ ? x : fixed_;
+    surface_->checkPoint(face_, u, v);
+    // The patch of the last point holds x too when x is in its square's span [lo, hi) (the
     // quadtree sends a point on a split to the upper half; hi = 1 is closed): PatchMap would
     // find the same patch.
-    if (!(patch_ && u >= lo_ && (u < hi_ || (u == hi_ && hi_ == real(1))))) {
-        const Far::PatchTable::PatchHandle* h = surface_->map_->FindPatch(face_, static_cast<double>(u), static_cast<double>(v_));
+    if (!(patch_ && x >= lo_ && (x < hi_ || (x == hi_ && hi_ == real(1))))) {
+        const Far::PatchTable::PatchHandle* h = surface_->map_->FindPatch(face_, static_cast<double>(u), static_cast<double>(v));
         if (!h) throw ArgumentError(surface_->name_ + ": face " + std::to_string(face_) + " is a hole (no surface to evaluate)");
         if (h != patch_) collapse(*h);
     }
     if (!regular_) return false;
-    const real s = u * scale_ - offset_; // dmPatchLocal: exact
-    const glm::vec<4, real> bs = kern::dmFoldBoundary(kern::dmBSpline3(s), low_, high_);
-    const glm::vec<4, real> bds = kern::dmFoldBoundary(kern::dmBSpline3D1(s), low_, high_) * scale_;
+    const real s = x * scale_ - offset_; // dmPatchLocal: exact
+    const glm::vec<4, real> b = kern::dmFoldBoundary(kern::dmBSpline3(s), low_, high_);
+    const glm::vec<4, real> db = kern::dmFoldBoundary(kern::dmBSpline3D1(s), low_, high_) * scale_;
     out = BaseSample<real>{};
-    for (int j = 0; j < 4; ++j) {
-        out.p += bs[j] * q_[j];
-        out.du += bds[j] * q_[j];
-        out.dv += bs[j] * qv_[j];
+    vec3 along(0), across(0);
+    for (int k = 0; k < 4; ++k) {
+        out.p += b[k] * q_[k];
+        along += db[k] * q_[k];
+        across += b[k] * qd_[k];
     }
+    out.du = alongV_ ? across : along;
+    out.dv = alongV_ ? along : across;
     return true;
 }
 

@@ -153,14 +153,16 @@ class DisplacedSurface {
     void evaluateBatch(const std::vector<SurfacePoint<real>>& points, NormalMode mode, std::vector<SurfaceSample<real>>& out,
                        int threads = 0, real rho = real(kFinest)) const;
 
-    /// evaluate() on the grid us[i] x vs[j] of one Ptex face, row by row (a tessellation's
-    /// inner grid): sink(i, j, sample) once per point, in row order, with the resolution
-    /// rhoAt(i, j). Where approximate normals are used and a regular patch holds the point, the
-    /// base surface comes from BaseSurface::Row (each patch collapsed once per row); there the
-    /// sample is evaluate()'s to rounding, not bit for bit (tests/test_surface.cpp bounds it).
-    /// Elsewhere (accurate normals, end caps, a degenerate s_u x s_v) it is evaluate() itself.
-    /// Throws as evaluate() for a face out of range, a hole, a coordinate outside [0, 1] or not
-    /// finite, or a NaN rho, at the first such point (the points before it were delivered).
+    /// evaluate() on the grid us[i] x vs[j] of one Ptex face (a tessellation's inner grid, or a
+    /// line of it: one u or one v): sink(i, j, sample) once per point, line by line along the
+    /// longer side (row by row, j outer, unless vs is longer than us: then column by column),
+    /// with the resolution rhoAt(i, j). Where approximate normals are used and a regular patch
+    /// holds the point, the base surface comes from BaseSurface::Row (each patch collapsed once
+    /// per line) and D from TileSet::Row; there the sample is evaluate()'s to rounding, not bit
+    /// for bit (tests/test_surface.cpp bounds it). Elsewhere (accurate normals, end caps, a
+    /// degenerate s_u x s_v) it is evaluate() itself. Every point of a line is checked before
+    /// any of it is delivered: ArgumentError as evaluate() for a face out of range, a hole, a
+    /// coordinate outside [0, 1] or not finite, or a NaN rho (the lines before were delivered).
     template <typename real, typename RhoAt, typename Sink>
     void evaluateGrid(int face, std::span<const real> us, std::span<const real> vs, NormalMode mode, RhoAt&& rhoAt, Sink&& sink) const;
 
@@ -306,51 +308,60 @@ void DisplacedSurface::evaluateGrid(int face, std::span<const real> us, std::spa
     base_->checkedFace(face);
     const bool accurate = mode == NormalMode::Accurate ||
                           (mode == NormalMode::Auto && autoAnalysis().accurate[static_cast<std::size_t>(face)] != 0);
-    // D of the finest level along the row, where displacementAt() reads level 0 alone (rho >=
+    // Lines along the longer side: rows (v fixed) unless there are more rows than columns.
+    const bool alongV = vs.size() > us.size();
+    const std::span<const real> xs = alongV ? vs : us, fixed = alongV ? us : vs;
+    // D of the finest level along the line, where displacementAt() reads level 0 alone (rho >=
     // k and no smaller tile at a corner).
     const Tile& tile = tiles_->tiles[static_cast<std::size_t>(face)];
     std::optional<TileSet::Row<real>> dRow;
     if ((tile.sizeDifferences[0] | tile.sizeDifferences[1] | tile.sizeDifferences[2] | tile.sizeDifferences[3]) == 0)
-        dRow.emplace(*tiles_, face, 0);
-    // A row's points in stages, each a short loop over independent points, so that the square
+        dRow.emplace(*tiles_, face, 0, alongV);
+    // A line's points in stages, each a short loop over independent points, so that the square
     // roots and divisions of several points overlap (one point's normal is a chain of two).
     struct Point {
         BaseSample<real> s;
         vec3 d1{0}, N{0}, n{0}, fu{0}, fv{0};
         real rho = 0;
-        bool grid = false; ///< the row's route; false: evaluate()
+        bool line = false; ///< the line's route; false: evaluate()
     };
-    std::vector<Point> row(us.size());
-    for (std::size_t j = 0; j < vs.size(); ++j) {
-        const real v = vs[j];
+    std::vector<Point> line(xs.size());
+    for (std::size_t b = 0; b < fixed.size(); ++b) {
+        const real f = fixed[b];
+        auto ij = [&](std::size_t a) { return alongV ? std::pair(b, a) : std::pair(a, b); };
         std::optional<BaseSurface::Row<real>> baseRow;
-        if (!accurate) baseRow.emplace(*base_, face, v);
-        if (dRow) dRow->setRow(v, us);
+        if (!accurate) baseRow.emplace(*base_, face, f, alongV);
+        if (dRow) dRow->setRow(f, xs);
         // 1. Checks, s and D. evaluate()'s route for approximate normals in a regular patch
         // (no end-cap or §5.4 data there), unless s_u x s_v vanishes and its fallback needs s_uu.
-        for (std::size_t i = 0; i < us.size(); ++i) {
-            Point& p = row[i];
-            const real u = us[i];
+        for (std::size_t a = 0; a < xs.size(); ++a) {
+            Point& p = line[a];
+            const auto [i, j] = ij(a);
+            const real u = us[i], v = vs[j];
             p.rho = rhoAt(i, j);
             check(face, u, v, p.rho, true);
-            p.grid = baseRow && baseRow->at(u, p.s);
-            if (p.grid) {
+            p.line = baseRow && baseRow->at(xs[a], p.s);
+            if (p.line) {
                 const vec3 n0 = glm::cross(p.s.du, p.s.dv);
-                p.grid = kern::dmDot3(n0, n0) > real(0);
+                p.line = kern::dmDot3(n0, n0) > real(0);
             }
-            if (p.grid) p.d1 = dRow && p.rho >= real(tile.k) ? feathered(face, u, v, dRow->at(u)) : featheredAt(face, u, v, p.rho);
+            if (p.line) p.d1 = dRow && p.rho >= real(tile.k) ? feathered(face, u, v, dRow->at(xs[a])) : featheredAt(face, u, v, p.rho);
         }
         // 2. N_s, 3. the displaced normal (displacedNormal()'s two steps).
         const vec3 fallback(real(0), real(0), real(1));
-        for (std::size_t i = 0; i < us.size(); ++i)
-            if (Point& p = row[i]; p.grid) p.N = kern::dmBaseNormal(p.s.du, p.s.dv, p.s.duu, p.s.duv, p.s.dvv, glm::vec<2, real>(us[i], v), fallback);
-        for (std::size_t i = 0; i < us.size(); ++i)
-            if (Point& p = row[i]; p.grid) p.n = kern::dmDisplacedNormalApprox(p.s.du, p.s.dv, p.N, p.d1, p.fu, p.fv);
+        for (std::size_t a = 0; a < xs.size(); ++a)
+            if (Point& p = line[a]; p.line) {
+                const auto [i, j] = ij(a);
+                p.N = kern::dmBaseNormal(p.s.du, p.s.dv, p.s.duu, p.s.duv, p.s.dvv, glm::vec<2, real>(us[i], vs[j]), fallback);
+            }
+        for (std::size_t a = 0; a < xs.size(); ++a)
+            if (Point& p = line[a]; p.line) p.n = kern::dmDisplacedNormalApprox(p.s.du, p.s.dv, p.N, p.d1, p.fu, p.fv);
         // 4. Delivered in order.
-        for (std::size_t i = 0; i < us.size(); ++i) {
-            const Point& p = row[i];
-            if (!p.grid) {
-                sink(i, j, evaluate<real>(face, us[i], v, mode, p.rho));
+        for (std::size_t a = 0; a < xs.size(); ++a) {
+            const Point& p = line[a];
+            const auto [i, j] = ij(a);
+            if (!p.line) {
+                sink(i, j, evaluate<real>(face, us[i], vs[j], mode, p.rho));
                 continue;
             }
             SurfaceSample<real> out;

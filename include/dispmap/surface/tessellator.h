@@ -39,8 +39,9 @@
 // evaluated at (one of the faces that share the vertex) and the resolution rho read: a tile's
 // inner grid through DisplacedSurface::evaluateGrid (each patch and tile row collapsed once per
 // grid row: evaluate() to rounding where approximate normals meet a regular patch, evaluate()
-// itself elsewhere), the points on tile edges and corners through DisplacedSurface::evaluate.
-// A shared vertex is evaluated once, so the mesh stays watertight. Mip selection:
+// itself elsewhere), and so are the points of each edge segment (a line u or v = const), the
+// corners and T-junction midpoints through DisplacedSurface::evaluate. A shared vertex is
+// evaluated once, so the mesh stays watertight. Mip selection:
 //  * Off: rho = kFinest (the finest level the §4.4 clamp allows).
 //  * TessFactor (§6.2): rho = log2 of the bilinearly interpolated per-vertex factor (dmBilerp of
 //    the tile's four corner values, in base-edge units), minus the tile's scale.
@@ -70,6 +71,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <span>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -742,8 +744,8 @@ inline void Tessellator::tessellate(TriangleMesh& out) const {
         });
         if (options_.normals == NormalMode::Auto) (void)surface_->autoFaces(); // the analysis, once, before the loop
         // Vertices are independent: each writes its own slot. A tile's inner grid goes through
-        // DisplacedSurface::evaluateGrid (each patch collapsed once per row); the vertices on
-        // tile edges and corners, the spans between the grids, one by one.
+        // DisplacedSurface::evaluateGrid (each patch collapsed once per row), and so do the
+        // points of the tile edges' segments (the spans between the grids), a line at a time.
         std::vector<std::size_t> spans; // [begin, end) pairs of the vertices outside the grids
         std::size_t next = 0;
         for (int t : live) {
@@ -761,15 +763,45 @@ inline void Tessellator::tessellate(TriangleMesh& out) const {
             if (!std::isfinite(p.x + p.y + p.z + q.x + q.y + q.z)) nonFinite.store(true, std::memory_order_relaxed);
         };
         par.each(spans.size() / 2, 4, [&](std::size_t k) {
-            for (std::size_t i = spans[2 * k]; i < spans[2 * k + 1]; ++i) {
+            // A span holds corners, T-junction midpoints and the interior points of edge segments,
+            // each segment's points one after another in one face's frame, on a line u or v =
+            // const: runs of them go through evaluateGrid as one line, single points through
+            // evaluate().
+            std::vector<double> xs;
+            const std::size_t end = spans[2 * k + 1];
+            for (std::size_t i = spans[2 * k]; i < end;) {
                 const int face = m.faces[i];
                 const glm::dvec2 uv = m.uvs[i];
-                const double rho = resolution(face, uv.x, uv.y);
-                const SurfaceSample<double> s = surface_->evaluate<double>(face, uv.x, uv.y, options_.normals, rho);
-                m.positions[i] = s.position;
-                m.normals[i] = s.normal;
-                m.resolutions[i] = rho;
-                flag(s);
+                std::size_t r = i + 1;
+                const bool row = r < end && m.faces[r] == face && m.uvs[r].y == uv.y;
+                const bool column = !row && r < end && m.faces[r] == face && m.uvs[r].x == uv.x;
+                while (r < end && m.faces[r] == face && (row ? m.uvs[r].y == uv.y : column && m.uvs[r].x == uv.x)) ++r;
+                if (r - i == 1) {
+                    const double rho = resolution(face, uv.x, uv.y);
+                    const SurfaceSample<double> s = surface_->evaluate<double>(face, uv.x, uv.y, options_.normals, rho);
+                    m.positions[i] = s.position;
+                    m.normals[i] = s.normal;
+                    m.resolutions[i] = rho;
+                    flag(s);
+                    i = r;
+                    continue;
+                }
+                xs.clear();
+                for (std::size_t q = i; q < r; ++q) xs.push_back(row ? m.uvs[q].x : m.uvs[q].y);
+                const double fixed = row ? uv.y : uv.x;
+                const std::span<const double> line(xs), one(&fixed, 1);
+                const std::size_t first = i;
+                surface_->evaluateGrid<double>(
+                    face, row ? line : one, row ? one : line, options_.normals,
+                    [&](std::size_t x, std::size_t y) {
+                        return m.resolutions[first + (row ? x : y)] = resolution(face, row ? xs[x] : fixed, row ? fixed : xs[y]);
+                    },
+                    [&](std::size_t x, std::size_t y, const SurfaceSample<double>& s) {
+                        m.positions[first + (row ? x : y)] = s.position;
+                        m.normals[first + (row ? x : y)] = s.normal;
+                        flag(s);
+                    });
+                i = r;
             }
         });
         par.each(live.size(), 1, [&](std::size_t k) {
