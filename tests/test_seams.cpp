@@ -27,27 +27,7 @@ namespace {
 
 using dmtest::extentOf;
 
-/// The mesh with a random third of its interior edges infinitely sharp (sharpness 10) and a
-/// few vertices infinitely sharp corners: creases that end inside the surface (darts), meet
-/// at corners, run along boundaries of N-gons, next to smooth edges whose end vertices they touch.
-ControlMesh withSharpFeatures(const ControlMesh& mesh, std::uint32_t seed) {
-    MeshDescription d = mesh.description();
-    d.name += " (random sharp features)";
-    const Far::TopologyLevel& L = mesh.base();
-    std::mt19937 rng(seed);
-    for (int e = 0; e < L.GetNumEdges(); ++e) {
-        if (L.IsEdgeBoundary(e) || rng() % 3 != 0) continue;
-        d.creaseVertexPairs.push_back(L.GetEdgeVertices(e)[0]);
-        d.creaseVertexPairs.push_back(L.GetEdgeVertices(e)[1]);
-        d.creaseWeights.push_back(10.0f);
-    }
-    for (int v = 0; v < L.GetNumVertices(); ++v)
-        if (rng() % 11 == 0) {
-            d.cornerVertices.push_back(v);
-            d.cornerWeights.push_back(10.0f);
-        }
-    return ControlMesh(std::move(d));
-}
+using dmtest::withSharpFeatures;
 
 struct Built {
     ControlMesh mesh;

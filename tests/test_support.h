@@ -1,7 +1,9 @@
 #pragma once
 // Shared helpers of the tests: meshes from tests/data and generated ones.
 #include <cmath>
+#include <cstdint>
 #include <limits>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -21,6 +23,28 @@ inline std::string dataPath(const std::string& file) {
 
 inline dispmap::ControlMesh shape(const std::string& name) {
     return dispmap::ControlMesh::fromObjFile(dataPath(name + ".obj"));
+}
+
+/// The mesh with a random third of its interior edges infinitely sharp (sharpness 10) and a
+/// few vertices infinitely sharp corners: creases that end inside the surface (darts), meet
+/// at corners, run along boundaries of N-gons, next to smooth edges whose end vertices they touch.
+inline dispmap::ControlMesh withSharpFeatures(const dispmap::ControlMesh& mesh, std::uint32_t seed) {
+    dispmap::MeshDescription d = mesh.description();
+    d.name += " (random sharp features)";
+    const OpenSubdiv::Far::TopologyLevel& L = mesh.base();
+    std::mt19937 rng(seed);
+    for (int e = 0; e < L.GetNumEdges(); ++e) {
+        if (L.IsEdgeBoundary(e) || rng() % 3 != 0) continue;
+        d.creaseVertexPairs.push_back(L.GetEdgeVertices(e)[0]);
+        d.creaseVertexPairs.push_back(L.GetEdgeVertices(e)[1]);
+        d.creaseWeights.push_back(10.0f);
+    }
+    for (int v = 0; v < L.GetNumVertices(); ++v)
+        if (rng() % 11 == 0) {
+            d.cornerVertices.push_back(v);
+            d.cornerWeights.push_back(10.0f);
+        }
+    return dispmap::ControlMesh(std::move(d));
 }
 
 /// An n x m torus of quads (every vertex valence 4, no boundary), u along i, v along j.

@@ -1520,13 +1520,20 @@ TEST_CASE("grid evaluation equals evaluate() to rounding, and is evaluate() itse
     // with 1 / sin of the angle between s_u and s_v).
     double worstP = 0, worstN = 0;
     int rowRouted = 0, pointRouted = 0, rowPoints = 0, columnPoints = 0;
+    std::vector<ControlMesh> meshes;
     for (const char* name : {"catmark_nonquads", "catmark_pole8", "catmark_xord_boundary", "catmark_edgecorner", "catmark_helmet",
                              "catmark_dart_edgecorner", "catmark_hole_test1", "spot_control_mesh"})
+        meshes.push_back(dmtest::shape(name));
+    // Infinitely sharp creases and corners: D fades towards them (the row route's D is feathered too).
+    meshes.push_back(dmtest::withSharpFeatures(dmtest::shape("catmark_nonquads"), 3));
+    int sharpFaces = 0;
+    for (const ControlMesh& mesh : meshes)
         for (const bool mixed : {false, true}) {
+            const std::string& name = mesh.description().name;
             CAPTURE(name, mixed);
-            const ControlMesh mesh = dmtest::shape(name);
             const double extent = extentOf(mesh);
             const BaseSurface base(mesh);
+            for (int f = 0; f < base.faceCount(); ++f) sharpFaces += base.sharpMask(f) != 0 ? 1 : 0;
             const TileSet tiles = buildTiles(mesh, mixed ? mixedTileSizes(mesh, 4) : uniformTileSizes(mesh, 4), [extent](int f, double u, double v) {
                 return 0.02 * extent * waves(f, u, v);
             });
@@ -1595,6 +1602,7 @@ TEST_CASE("grid evaluation equals evaluate() to rounding, and is evaluate() itse
     CHECK(pointRouted > 0);
     CHECK(rowPoints > 0);
     CHECK(columnPoints > 0);
+    CHECK(sharpFaces > 0);
     report("grid evaluation vs evaluate: %d points by lines (worst position %.3g of the extent, normal %.3g rad), %d by points, equal\n",
            rowRouted, worstP, worstN, pointRouted);
 
@@ -1618,6 +1626,15 @@ TEST_CASE("grid evaluation equals evaluate() to rounding, and is evaluate() itse
                       Contains("rho is NaN"));
     CHECK(delivered == 0);
     CHECK_THROWS_WITH(surface.evaluateGrid<double>(base.faceCount(), good, good, NormalMode::Auto, finest, count), Contains("out of range"));
+    // A NaN rho is named before the point's bad coordinate, as evaluate() names it; no points, nothing to check.
+    CHECK_THROWS_WITH(surface.evaluateGrid<double>(0, bad, good, NormalMode::Accurate, [](std::size_t, std::size_t) { return std::nan(""); }, count),
+                      Contains("rho is NaN"));
+    const std::vector<double> none;
+    for (const NormalMode mode : {NormalMode::Approximate, NormalMode::Accurate}) {
+        CHECK_NOTHROW(surface.evaluateGrid<double>(0, none, bad, mode, finest, count));
+        CHECK_NOTHROW(surface.evaluateGrid<double>(0, bad, none, mode, finest, count));
+    }
+    CHECK(delivered == 0);
 }
 
 TEST_CASE("bad inputs: clear errors", "[surface]") {

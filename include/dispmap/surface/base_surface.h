@@ -81,6 +81,8 @@ class BaseSurface {
 
     /// Number of Ptex faces (the valid face ids).
     int faceCount() const { return faceCount_; }
+    /// The mesh's name, which error messages start with.
+    const std::string& name() const { return name_; }
     /// True if the Ptex face lies in a face tagged as a hole (no surface there).
     bool isHole(int face) const { return hole_[checkedFace(face)] != 0; }
     const BaseSurfaceOptions& options() const { return options_; }

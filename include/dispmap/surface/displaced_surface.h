@@ -160,9 +160,11 @@ class DisplacedSurface {
     /// holds the point, the base surface comes from BaseSurface::Row (each patch collapsed once
     /// per line) and D from TileSet::Row; there the sample is evaluate()'s to rounding, not bit
     /// for bit (tests/test_surface.cpp bounds it). Elsewhere (accurate normals, end caps, a
-    /// degenerate s_u x s_v) it is evaluate() itself. Every point of a line is checked before
-    /// any of it is delivered: ArgumentError as evaluate() for a face out of range, a hole, a
-    /// coordinate outside [0, 1] or not finite, or a NaN rho (the lines before were delivered).
+    /// degenerate s_u x s_v) it is evaluate() itself; where s_u x s_v is nearly degenerate the
+    /// two routes' normals may differ by more than rounding (a normal that is undefined there
+    /// either way). Every point of a line is checked, in order, before any of it is delivered:
+    /// ArgumentError as evaluate() throws it for a face out of range, a NaN rho, a coordinate
+    /// outside [0, 1] or not finite, or a hole (the lines before were delivered).
     template <typename real, typename RhoAt, typename Sink>
     void evaluateGrid(int face, std::span<const real> us, std::span<const real> vs, NormalMode mode, RhoAt&& rhoAt, Sink&& sink) const;
 
@@ -315,7 +317,7 @@ void DisplacedSurface::evaluateGrid(int face, std::span<const real> us, std::spa
     // k and no smaller tile at a corner).
     const Tile& tile = tiles_->tiles[static_cast<std::size_t>(face)];
     std::optional<TileSet::Row<real>> dRow;
-    if ((tile.sizeDifferences[0] | tile.sizeDifferences[1] | tile.sizeDifferences[2] | tile.sizeDifferences[3]) == 0)
+    if (!accurate && (tile.sizeDifferences[0] | tile.sizeDifferences[1] | tile.sizeDifferences[2] | tile.sizeDifferences[3]) == 0)
         dRow.emplace(*tiles_, face, 0, alongV);
     // A line's points in stages, each a short loop over independent points, so that the square
     // roots and divisions of several points overlap (one point's normal is a chain of two).
@@ -329,23 +331,35 @@ void DisplacedSurface::evaluateGrid(int face, std::span<const real> us, std::spa
     for (std::size_t b = 0; b < fixed.size(); ++b) {
         const real f = fixed[b];
         auto ij = [&](std::size_t a) { return alongV ? std::pair(b, a) : std::pair(a, b); };
+        // 0. Every point checked as evaluate() checks it (rho, then (u, v), then a hole), before
+        // anything of the line is made or delivered.
+        bool finest = false; // whether a point reads level 0 alone (rho >= k)
+        for (std::size_t a = 0; a < xs.size(); ++a) {
+            const auto [i, j] = ij(a);
+            line[a].rho = rhoAt(i, j);
+            check(face, us[i], vs[j], line[a].rho, false);
+            base_->checkPoint(face, us[i], vs[j]);
+            finest = finest || line[a].rho >= real(tile.k);
+        }
+        if (xs.empty()) continue;
+        if (base_->isHole(face))
+            throw ArgumentError(base_->name() + ": face " + std::to_string(face) + " is a hole (no surface to evaluate)");
         std::optional<BaseSurface::Row<real>> baseRow;
         if (!accurate) baseRow.emplace(*base_, face, f, alongV);
-        if (dRow) dRow->setRow(f, xs);
-        // 1. Checks, s and D. evaluate()'s route for approximate normals in a regular patch
-        // (no end-cap or §5.4 data there), unless s_u x s_v vanishes and its fallback needs s_uu.
+        const bool dLine = dRow && finest;
+        if (dLine) dRow->setRow(f, xs);
+        // 1. s and D. evaluate()'s route for approximate normals in a regular patch (no end-cap
+        // or §5.4 data there), unless s_u x s_v vanishes and its fallback needs s_uu.
         for (std::size_t a = 0; a < xs.size(); ++a) {
             Point& p = line[a];
             const auto [i, j] = ij(a);
             const real u = us[i], v = vs[j];
-            p.rho = rhoAt(i, j);
-            check(face, u, v, p.rho, true);
             p.line = baseRow && baseRow->at(xs[a], p.s);
             if (p.line) {
                 const vec3 n0 = glm::cross(p.s.du, p.s.dv);
                 p.line = kern::dmDot3(n0, n0) > real(0);
             }
-            if (p.line) p.d1 = dRow && p.rho >= real(tile.k) ? feathered(face, u, v, dRow->at(xs[a])) : featheredAt(face, u, v, p.rho);
+            if (p.line) p.d1 = dLine && p.rho >= real(tile.k) ? feathered(face, u, v, dRow->at(xs[a])) : featheredAt(face, u, v, p.rho);
         }
         // 2. N_s, 3. the displaced normal (displacedNormal()'s two steps).
         const vec3 fallback(real(0), real(0), real(1));

@@ -674,8 +674,7 @@ inline TriangleMesh Tessellator::tessellate() const {
 inline void Tessellator::tessellate(TriangleMesh& out) const {
     const BaseSurface& base = surface_->base();
     const TileTopology& topo = base.topology();
-    // Emptied, not freed: the arrays keep their capacity, and a new size within it writes over
-    // pages already touched (growing an emptied vector copies nothing).
+    // On a throw every array is emptied, not freed: it keeps its capacity.
     auto clear = [&] {
         out.positions.clear();
         out.normals.clear();
@@ -688,7 +687,8 @@ inline void Tessellator::tessellate(TriangleMesh& out) const {
     };
     // faces and uvs are appended to; the other arrays are resized to their counts below and
     // every element written, so they keep their contents meanwhile: a tessellation again to the
-    // same counts writes each element once, not zeroes first (growth is zeroed by resize).
+    // same counts writes each element once, not zeroes first (growth is zeroed by resize), and a
+    // new size within the capacity writes over pages already touched.
     out.faces.clear();
     out.uvs.clear();
     const TessellationSize size = estimate();
@@ -706,6 +706,12 @@ inline void Tessellator::tessellate(TriangleMesh& out) const {
         std::vector<int> live;
         TriangleMesh& m = out;
         const Parallel par(options_.threads);
+        // Sized to n, every element then written: kept where it fits (nothing written twice),
+        // emptied first where it grows past its capacity (nothing copied into the new block).
+        auto refill = [&](auto& v, std::size_t count) {
+            if (v.capacity() < count) v.clear();
+            resizeLarge(v, count, options_.hugePages);
+        };
         // Sizing the output arrays is mostly the kernel's first touch of their pages (tens of MiB
         // at factor 32), so the arrays are sized side by side, as tasks of their own, with the
         // huge-page hint (core/memory.h). The triangle count is exact from the factors, so those
@@ -721,11 +727,11 @@ inline void Tessellator::tessellate(TriangleMesh& out) const {
                         live.push_back(t);
                     }
             } else if (task == 1) {
-                resizeLarge(m.triangles, triangles, options_.hugePages);
+                refill(m.triangles, triangles);
             } else if (task == 2) {
-                resizeLarge(m.triangleFaces, triangles, options_.hugePages);
+                refill(m.triangleFaces, triangles);
             } else {
-                resizeLarge(m.triangleUVs, triangles, options_.hugePages);
+                refill(m.triangleUVs, triangles);
             }
         });
         if (b.triangleCount != triangles)
@@ -737,9 +743,9 @@ inline void Tessellator::tessellate(TriangleMesh& out) const {
         par.each(4, 1, [&](std::size_t task) {
             switch (task) {
             case 0: par.each(live.size(), 8, [&](std::size_t i) { emit(b, live[i]); }); break;
-            case 1: resizeLarge(m.positions, n, options_.hugePages); break;
-            case 2: resizeLarge(m.normals, n, options_.hugePages); break;
-            default: resizeLarge(m.resolutions, n, options_.hugePages); break;
+            case 1: refill(m.positions, n); break;
+            case 2: refill(m.normals, n); break;
+            default: refill(m.resolutions, n); break;
             }
         });
         if (options_.normals == NormalMode::Auto) (void)surface_->autoFaces(); // the analysis, once, before the loop
