@@ -1519,7 +1519,7 @@ TEST_CASE("grid evaluation equals evaluate() to rounding, and is evaluate() itse
     // 1e-10 rad (measured 7.1e-13: the normal's rounding error grows with |D_u| / |s_u| and
     // with 1 / sin of the angle between s_u and s_v).
     double worstP = 0, worstN = 0;
-    int rowRouted = 0, pointRouted = 0, rowPoints = 0, columnPoints = 0;
+    int lineRouted = 0, pointRouted = 0, rowPoints = 0, columnPoints = 0;
     std::vector<ControlMesh> meshes;
     for (const char* name : {"catmark_nonquads", "catmark_pole8", "catmark_xord_boundary", "catmark_edgecorner", "catmark_helmet",
                              "catmark_dart_edgecorner", "catmark_hole_test1", "spot_control_mesh"})
@@ -1559,52 +1559,52 @@ TEST_CASE("grid evaluation equals evaluate() to rounding, and is evaluate() itse
                         // tile's edge u = 0 or 1 among them) column by column.
                         for (const auto& [us, vs] : {std::pair(xs, xs), std::pair(few, xs), std::pair(std::vector<double>{1.0}, xs),
                                                      std::pair(xs, std::vector<double>{0.0})}) {
-                        std::size_t expected = 0;
-                        const bool columns = vs.size() > us.size();
-                        surface.evaluateGrid<double>(
-                            face, us, vs, mode, [&](std::size_t i, std::size_t j) { return rhoOf(which, i, j); },
-                            [&](std::size_t i, std::size_t j, const SurfaceSample<double>& got) {
-                                const bool inOrder = (columns ? i * vs.size() + j : j * us.size() + i) == expected++;
-                                const double u = us[i], v = vs[j], rho = rhoOf(which, i, j);
-                                const SurfaceSample<double> want = surface.evaluate<double>(face, u, v, mode, rho);
-                                const bool same = got.position == want.position && got.normal == want.normal && got.du == want.du &&
-                                                  got.dv == want.dv && got.baseNormal == want.baseNormal &&
-                                                  got.displacement == want.displacement && got.accurate == want.accurate;
-                                // The line route: approximate normals in a regular patch.
-                                BaseSample<double> probe;
-                                typename BaseSurface::Row<double> row(base, face, v);
-                                const bool routed = !want.accurate && row.at(u, probe);
-                                ++(columns ? columnPoints : rowPoints);
-                                const double dp = glm::length(got.position - want.position) / extent,
-                                             dn = angleBetween(got.normal, want.normal);
-                                bool ok = inOrder && got.accurate == want.accurate;
-                                if (routed) {
-                                    ++rowRouted;
-                                    worstP = std::max(worstP, dp);
-                                    worstN = std::max(worstN, dn);
-                                    ok = ok && dp <= 1e-13 && dn <= 1e-10;
-                                } else {
-                                    ++pointRouted;
-                                    ok = ok && same;
-                                }
-                                if (!ok && failures++ == 0) {
-                                    CAPTURE(face, u, v, rho, routed, dp, dn, inOrder);
-                                    CHECK(ok);
-                                }
-                            });
-                        CHECK(expected == us.size() * vs.size());
+                            std::size_t expected = 0;
+                            const bool columns = vs.size() > us.size();
+                            surface.evaluateGrid<double>(
+                                face, us, vs, mode, [&](std::size_t i, std::size_t j) { return rhoOf(which, i, j); },
+                                [&](std::size_t i, std::size_t j, const SurfaceSample<double>& got) {
+                                    const bool inOrder = (columns ? i * vs.size() + j : j * us.size() + i) == expected++;
+                                    const double u = us[i], v = vs[j], rho = rhoOf(which, i, j);
+                                    const SurfaceSample<double> want = surface.evaluate<double>(face, u, v, mode, rho);
+                                    const bool same = got.position == want.position && got.normal == want.normal && got.du == want.du &&
+                                                      got.dv == want.dv && got.baseNormal == want.baseNormal &&
+                                                      got.displacement == want.displacement && got.accurate == want.accurate;
+                                    // The line route: approximate normals in a regular patch.
+                                    BaseSample<double> probe;
+                                    typename BaseSurface::Row<double> row(base, face, v);
+                                    const bool routed = !want.accurate && row.at(u, probe);
+                                    ++(columns ? columnPoints : rowPoints);
+                                    const double dp = glm::length(got.position - want.position) / extent,
+                                                 dn = angleBetween(got.normal, want.normal);
+                                    bool ok = inOrder && got.accurate == want.accurate;
+                                    if (routed) {
+                                        ++lineRouted;
+                                        worstP = std::max(worstP, dp);
+                                        worstN = std::max(worstN, dn);
+                                        ok = ok && dp <= 1e-13 && dn <= 1e-10;
+                                    } else {
+                                        ++pointRouted;
+                                        ok = ok && same;
+                                    }
+                                    if (!ok && failures++ == 0) {
+                                        CAPTURE(face, u, v, rho, routed, dp, dn, inOrder);
+                                        CHECK(ok);
+                                    }
+                                });
+                            CHECK(expected == us.size() * vs.size());
                         }
                     }
                     CHECK(failures == 0);
                 }
         }
-    CHECK(rowRouted > 0);
+    CHECK(lineRouted > 0);
     CHECK(pointRouted > 0);
     CHECK(rowPoints > 0);
     CHECK(columnPoints > 0);
     CHECK(sharpFaces > 0);
     report("grid evaluation vs evaluate: %d points by lines (worst position %.3g of the extent, normal %.3g rad), %d by points, equal\n",
-           rowRouted, worstP, worstN, pointRouted);
+           lineRouted, worstP, worstN, pointRouted);
 
     // Bad input: the first bad point of a row throws before any point of that row is delivered.
     const ControlMesh mesh = dmtest::shape("catmark_nonquads");

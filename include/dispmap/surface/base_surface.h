@@ -81,8 +81,6 @@ class BaseSurface {
 
     /// Number of Ptex faces (the valid face ids).
     int faceCount() const { return faceCount_; }
-    /// The mesh's name, which error messages start with.
-    const std::string& name() const { return name_; }
     /// True if the Ptex face lies in a face tagged as a hole (no surface there).
     bool isHole(int face) const { return hole_[checkedFace(face)] != 0; }
     const BaseSurfaceOptions& options() const { return options_; }
@@ -116,6 +114,10 @@ class BaseSurface {
     /// Throws ArgumentError naming the mesh unless `face` is a Ptex face id and (u, v) a finite
     /// point of [0, 1]^2.
     template <typename real> void checkPoint(int face, real u, real v) const;
+    /// Throws ArgumentError naming the mesh if `face` is a hole (no surface to evaluate).
+    void checkNotHole(int face) const {
+        if (isHole(face)) holeError(face);
+    }
     /// `face` as an index; throws ArgumentError naming the mesh if it is not a Ptex face id.
     std::size_t checkedFace(int face) const {
         if (face < 0 || face >= faceCount_)
@@ -155,6 +157,9 @@ class BaseSurface {
     int controlPointCount() const { return refiner_->GetLevel(0).GetNumVertices(); }
 
   private:
+    [[noreturn]] void holeError(int face) const {
+        throw ArgumentError(name_ + ": face " + std::to_string(face) + " is a hole (no surface to evaluate)");
+    }
     template <typename real> const Far::PatchTable::PatchHandle& findPatch(int face, real u, real v) const;
     template <typename real>
     BaseSample<real> evaluateIn(const Far::PatchTable::PatchHandle& patch, int face, real u, real v, bool second) const;
@@ -202,7 +207,7 @@ template <typename real> class BaseSurface::Row {
     Row(const BaseSurface& surface, int face, real fixed, bool alongV = false)
         : surface_(&surface), face_(face), fixed_(fixed), alongV_(alongV) {
         surface.checkPoint(face, alongV ? fixed : real(0), alongV ? real(0) : fixed);
-        if (surface.isHole(face)) throw ArgumentError(surface.name_ + ": face " + std::to_string(face) + " is a hole (no surface to evaluate)");
+        surface.checkNotHole(face);
     }
     /// s, s_u, s_v at the line's point x (u along a row, v along a column) into out (second
     /// derivatives and the §5.4 blend data left 0), or false, with out untouched, where an
@@ -269,7 +274,7 @@ template <typename real> bool BaseSurface::Row<real>::at(real x, BaseSample<real
     // find the same patch.
     if (!(patch_ && x >= lo_ && (x < hi_ || (x == hi_ && hi_ == real(1))))) {
         const Far::PatchTable::PatchHandle* h = surface_->map_->FindPatch(face_, static_cast<double>(u), static_cast<double>(v));
-        if (!h) throw ArgumentError(surface_->name_ + ": face " + std::to_string(face_) + " is a hole (no surface to evaluate)");
+        if (!h) surface_->holeError(face_);
         if (h != patch_) collapse(*h);
     }
     if (!regular_) return false;
@@ -465,7 +470,7 @@ template <typename real> void BaseSurface::checkPoint(int face, real u, real v) 
 template <typename real> const Far::PatchTable::PatchHandle& BaseSurface::findPatch(int face, real u, real v) const {
     checkPoint(face, u, v);
     const Far::PatchTable::PatchHandle* h = map_->FindPatch(face, static_cast<double>(u), static_cast<double>(v));
-    if (!h) throw ArgumentError(name_ + ": face " + std::to_string(face) + " is a hole (no surface to evaluate)");
+    if (!h) holeError(face);
     return *h;
 }
 

@@ -342,8 +342,7 @@ void DisplacedSurface::evaluateGrid(int face, std::span<const real> us, std::spa
             finest = finest || line[a].rho >= real(tile.k);
         }
         if (xs.empty()) continue;
-        if (base_->isHole(face))
-            throw ArgumentError(base_->name() + ": face " + std::to_string(face) + " is a hole (no surface to evaluate)");
+        base_->checkNotHole(face);
         std::optional<BaseSurface::Row<real>> baseRow;
         if (!accurate) baseRow.emplace(*base_, face, f, alongV);
         const bool dLine = dRow && finest;

@@ -763,9 +763,12 @@ inline void Tessellator::tessellate(TriangleMesh& out) const {
         }
         spans.push_back(next);
         spans.push_back(n);
+        // Vertex i's position and normal; one that is not finite is flagged for the scan below.
         std::atomic<bool> nonFinite{false};
-        auto flag = [&](const SurfaceSample<double>& s) {
+        auto store = [&](std::size_t i, const SurfaceSample<double>& s) {
             const glm::dvec3 &p = s.position, &q = s.normal;
+            m.positions[i] = p;
+            m.normals[i] = q;
             if (!std::isfinite(p.x + p.y + p.z + q.x + q.y + q.z)) nonFinite.store(true, std::memory_order_relaxed);
         };
         par.each(spans.size() / 2, 4, [&](std::size_t k) {
@@ -784,11 +787,8 @@ inline void Tessellator::tessellate(TriangleMesh& out) const {
                 while (r < end && m.faces[r] == face && (row ? m.uvs[r].y == uv.y : column && m.uvs[r].x == uv.x)) ++r;
                 if (r - i == 1) {
                     const double rho = resolution(face, uv.x, uv.y);
-                    const SurfaceSample<double> s = surface_->evaluate<double>(face, uv.x, uv.y, options_.normals, rho);
-                    m.positions[i] = s.position;
-                    m.normals[i] = s.normal;
+                    store(i, surface_->evaluate<double>(face, uv.x, uv.y, options_.normals, rho));
                     m.resolutions[i] = rho;
-                    flag(s);
                     i = r;
                     continue;
                 }
@@ -802,11 +802,7 @@ inline void Tessellator::tessellate(TriangleMesh& out) const {
                     [&](std::size_t x, std::size_t y) {
                         return m.resolutions[first + (row ? x : y)] = resolution(face, row ? xs[x] : fixed, row ? fixed : xs[y]);
                     },
-                    [&](std::size_t x, std::size_t y, const SurfaceSample<double>& s) {
-                        m.positions[first + (row ? x : y)] = s.position;
-                        m.normals[first + (row ? x : y)] = s.normal;
-                        flag(s);
-                    });
+                    [&](std::size_t x, std::size_t y, const SurfaceSample<double>& s) { store(first + (row ? x : y), s); });
                 i = r;
             }
         });
@@ -822,11 +818,7 @@ inline void Tessellator::tessellate(TriangleMesh& out) const {
             surface_->evaluateGrid<double>(
                 t, us, vs, options_.normals,
                 [&](std::size_t i, std::size_t j) { return m.resolutions[first + j * row + i] = resolution(t, us[i], vs[j]); },
-                [&](std::size_t i, std::size_t j, const SurfaceSample<double>& s) {
-                    m.positions[first + j * row + i] = s.position;
-                    m.normals[first + j * row + i] = s.normal;
-                    flag(s);
-                });
+                [&](std::size_t i, std::size_t j, const SurfaceSample<double>& s) { store(first + j * row + i, s); });
         });
         // The first vertex in index order that is not finite is named, whatever the thread count
         // (looked for only when a task saw one).
