@@ -399,7 +399,7 @@ TEST_CASE("bake: holes, a disconnected piece, non-manifold edges, rays that miss
         for (int c = 0; c < 3; ++c) cap = cap && t.positions[static_cast<std::size_t>(tri[c])].z > 0.9;
         if (!cap) kept.push_back(tri);
     }
-    t.triangles = kept;
+    t.triangles.assign(kept.begin(), kept.end());
     const TriangleMesh small = uvSphere(24, 12, 0.1, glm::dvec3(2.0, 0.0, 0.0));
     const int base = t.vertexCount();
     for (const glm::dvec3& p : small.positions) t.positions.push_back(p);

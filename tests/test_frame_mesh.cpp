@@ -700,7 +700,7 @@ TEST_CASE("groupFrameMesh orders the triangles by group, stably, and counts them
     const Built b(dmtest::shape("catmark_torus"), 2.0);
     const UvMap uv(b.mesh);
     const FrameMesh whole = buildFrameMesh(b.surface, b.tess, &uv, {});
-    REQUIRE(whole.faces == b.tess.triangleFaces);
+    REQUIRE(std::ranges::equal(whole.faces, b.tess.triangleFaces));
     CHECK(whole.groups.empty());
     // Faces by parity into groups 2 and 0; group 1 gets none.
     std::vector<int> groupOf(static_cast<std::size_t>(b.base.faceCount()));

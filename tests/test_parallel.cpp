@@ -10,6 +10,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <random>
 
 #include "dispmap/meso/ddm.h"
@@ -26,7 +27,7 @@ using namespace dispmap;
 namespace {
 
 // Bit for bit: equal doubles and floats may still differ in sign of zero or NaN payload.
-template <class T> bool sameBits(const std::vector<T>& a, const std::vector<T>& b) {
+template <class T, class A, class B> bool sameBits(const std::vector<T, A>& a, const std::vector<T, B>& b) {
     return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
 }
 
@@ -280,6 +281,29 @@ TEST_CASE("tessellation into a used mesh: the same mesh bit for bit, in the same
     TriangleMesh grown = small.tessellate(); // grows past its capacity
     large.tessellate(grown);
     CHECK(sameMesh(used, grown));
+    // Every element is written: a MeshArray's resize() leaves new elements as the memory held
+    // them (core/triangle_mesh.h), so arrays emptied over poison (NaN, -1) show any element a
+    // tessellation leaves unwritten, for the same counts and for smaller ones.
+    for (const Tessellator* t : {&large, &small}) {
+        TriangleMesh poisoned;
+        const double nan = std::numeric_limits<double>::quiet_NaN();
+        auto poison = [](auto& v, std::size_t n, const auto& value) {
+            v.assign(n, value);
+            v.clear();
+        };
+        poison(poisoned.positions, largeVertices, glm::dvec3(nan));
+        poison(poisoned.normals, largeVertices, glm::dvec3(nan));
+        poison(poisoned.faces, largeVertices, -1);
+        poison(poisoned.uvs, largeVertices, glm::dvec2(nan));
+        poison(poisoned.resolutions, largeVertices, nan);
+        poison(poisoned.triangles, largeTriangles, glm::ivec3(-1));
+        poison(poisoned.triangleFaces, largeTriangles, -1);
+        poison(poisoned.triangleUVs, largeTriangles, std::array<glm::dvec2, 3>{glm::dvec2(nan), glm::dvec2(nan), glm::dvec2(nan)});
+        const glm::dvec3* held = poisoned.positions.data();
+        t->tessellate(poisoned);
+        CHECK(poisoned.positions.data() == held); // the poisoned memory was the one used
+        CHECK(sameMesh(t == &large ? used : fresh, poisoned));
+    }
     // The huge-page hint changes where the memory comes from, never the mesh.
     TessellateOptions plain = o;
     plain.hugePages = false;

@@ -491,7 +491,7 @@ TEST_CASE("OBJ and PLY writers round-trip", "[tessellate]") {
         glm::dvec3 x;
         in >> x.x >> x.y >> x.z;
         std::size_t& count = isNormal ? vns : vs;
-        const std::vector<glm::dvec3>& want = isNormal ? m.normals : m.positions;
+        const MeshArray<glm::dvec3>& want = isNormal ? m.normals : m.positions;
         exact = exact && count < want.size() && x == want[count];
         ++count;
     }

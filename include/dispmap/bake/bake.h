@@ -96,7 +96,7 @@ inline DenseMesh denseMeshOf(const TriangleMesh& t, std::string name) {
     std::vector<std::array<std::uint64_t, 3>> tris(t.triangles.size());
     for (std::size_t i = 0; i < tris.size(); ++i)
         for (int c = 0; c < 3; ++c) tris[i][static_cast<std::size_t>(c)] = static_cast<std::uint64_t>(t.triangles[i][c]);
-    return makeDenseMesh(std::move(name), t.positions, tris, tris.size());
+    return makeDenseMesh(std::move(name), {t.positions.begin(), t.positions.end()}, tris, tris.size());
 }
 
 /// Most vertices of the measured tessellation (~200 bytes each with its BVH): the factor is

@@ -49,14 +49,14 @@ inline void adviseHugePages(void* p, std::size_t bytes) {
 /// may compact memory first, which can stall on a fragmented machine; the 2 MiB size is x86-64's
 /// (arm64 with 64 KiB base pages has 512 MiB huge pages, and the hint then rarely applies). On
 /// memory malloc keeps in its heap after a free, the advice stays with the range.
-template <class T> void reserveLarge(std::vector<T>& v, std::size_t n, bool hint = true) {
+template <class T, class A> void reserveLarge(std::vector<T, A>& v, std::size_t n, bool hint = true) {
     if (v.capacity() >= n) return;
     v.reserve(n);
     if (hint) adviseHugePages(v.data(), v.capacity() * sizeof(T));
 }
 
 /// reserveLarge(v, n, hint), then v.resize(n).
-template <class T> void resizeLarge(std::vector<T>& v, std::size_t n, bool hint = true) {
+template <class T, class A> void resizeLarge(std::vector<T, A>& v, std::size_t n, bool hint = true) {
     reserveLarge(v, n, hint);
     v.resize(n);
 }

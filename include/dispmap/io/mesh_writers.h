@@ -9,6 +9,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -54,7 +55,7 @@ inline void checkPerVertex(const TriangleMesh& m, const std::string& path, std::
 }
 
 // Throws ArgumentError unless every (s, t) is finite (and, asFloat, within float range).
-inline void checkTexcoords(const TriangleMesh& m, const std::string& path, const std::vector<glm::dvec2>& st, bool asFloat,
+inline void checkTexcoords(const TriangleMesh& m, const std::string& path, std::span<const glm::dvec2> st, bool asFloat,
                            const char* what = "texture coordinates") {
     checkPerVertex(m, path, st.size(), what);
     constexpr double kFloatMax = std::numeric_limits<float>::max();
@@ -87,7 +88,7 @@ inline void writeObj(const TriangleMesh& mesh, const std::string& path, const Me
                     std::to_string(mesh.triangleCount()) + " triangles\n";
     s.reserve(s.size() + mesh.positions.size() * (st ? 160 : 120) + mesh.triangles.size() * (st ? 60 : 40));
     for (const char* tag : {"v ", "vn "}) {
-        const std::vector<glm::dvec3>& a = tag[1] == 'n' ? mesh.normals : mesh.positions;
+        const MeshArray<glm::dvec3>& a = tag[1] == 'n' ? mesh.normals : mesh.positions;
         for (const glm::dvec3& p : a) {
             s += tag;
             detail::appendNumber(s, p.x);

@@ -214,7 +214,7 @@ inline FrameMesh buildFrameMesh(const DisplacedSurface& surface, const TriangleM
     FrameMesh out;
     out.shaped = o.shape;
     out.corners.resize(3 * tess.triangles.size());
-    out.faces = tess.triangleFaces;
+    out.faces.assign(tess.triangleFaces.begin(), tess.triangleFaces.end());
     std::vector<char> singular(3 * tess.triangles.size(), 0);
     Parallel().each(tess.triangles.size(), 256, [&](std::size_t t) {
         const int face = tess.triangleFaces[t];

@@ -686,9 +686,9 @@ inline void Tessellator::tessellate(TriangleMesh& out) const {
         out.triangleUVs.clear();
     };
     // faces and uvs are appended to; the other arrays are resized to their counts below and
-    // every element written, so they keep their contents meanwhile: a tessellation again to the
-    // same counts writes each element once, not zeroes first (growth is zeroed by resize), and a
-    // new size within the capacity writes over pages already touched.
+    // every element written, so they keep their contents meanwhile: each element is written once
+    // (a MeshArray's resize does not zero its growth, core/triangle_mesh.h), and a new size
+    // within the capacity writes over pages already touched.
     out.faces.clear();
     out.uvs.clear();
     const TessellationSize size = estimate();
