@@ -326,6 +326,49 @@ TEST_CASE("dmShellExit: where a ray leaves the curved shell through its top", "[
     }
 }
 
+// The largest step between two neighbouring samples of `field` (voxels of height per voxel).
+double steepestStep(const MesoHeightField& field) {
+    double steep = 0;
+    for (int j = 0; j < field.height; ++j)
+        for (int i = 0; i < field.width; ++i) {
+            const glm::vec4 c = field.cell(i, j);
+            steep = std::max({steep, double(std::abs(c.y - c.x)), double(std::abs(c.w - c.x)), double(std::abs(c.z - c.y)), double(std::abs(c.z - c.w))});
+        }
+    return steep;
+}
+
+// A reference for marches along a bent ray: the parabola P(t) = o + t d - bend t^2 z walked in
+// steps of 1/64 voxel over the bilinear field (the floor solid). tNear: the first point within
+// `near` of the surface or below it; tDeep: the first `deep` below it (-1: none before the ray
+// leaves); leaves: it came back above the top first.
+struct BentWalk {
+    double tNear = -1, tDeep = -1;
+    bool leaves = false;
+};
+BentWalk walkBentRay(const MesoHeightField& field, const glm::dvec3& o, const glm::dvec3& d, double bend, double near, double deep) {
+    const auto below = [&](double t) { // how far P(t) lies below the surface (< 0: above)
+        const glm::dvec3 p = o + d * t - glm::dvec3(0.0, 0.0, bend * t * t);
+        glm::dvec2 f;
+        const glm::ivec2 c = kern::dmHeightCell(glm::dvec2(p.x, p.y), f);
+        return std::max(kern::dmBilerp(glm::dvec4(field.cell(c.x, c.y)), f), 0.0) - p.z;
+    };
+    BentWalk w;
+    for (double t = 0.0; t < 4096.0; t += 1.0 / 64.0) {
+        const double z = o.z + d.z * t - bend * t * t;
+        if (t > 0 && z > field.layers) { // back above the top: left the shell
+            w.leaves = true;
+            break;
+        }
+        const double b = below(t);
+        if (w.tNear < 0 && b >= -near) w.tNear = t;
+        if (b >= deep) {
+            w.tDeep = t;
+            break;
+        }
+    }
+    return w;
+}
+
 TEST_CASE("a bent ray's DDM march finds the parabola's first crossing of the height field", "[meso][frame][silhouette]") {
     // The grating and a wave field, 4x1 + shadow cones (bent-up chords read them), quadrics. The
     // reference walks the parabola P(t) = o + t d - bend t^2 z itself in steps of 1/64 voxel: the
@@ -343,13 +386,7 @@ TEST_CASE("a bent ray's DDM march finds the parabola's first crossing of the hei
         const double L = field.layers, eChord = kMesoChordError;
         // The walk's own blind spot: between two of its points (1/64 of a voxel or less apart
         // horizontally) the field changes by at most its steepest texel step / 64.
-        double steep = 0;
-        for (int j = 0; j < field.height; ++j)
-            for (int i = 0; i < field.width; ++i) {
-                const glm::vec4 c = field.cell(i, j);
-                steep = std::max({steep, double(std::abs(c.y - c.x)), double(std::abs(c.w - c.x)), double(std::abs(c.z - c.y)), double(std::abs(c.z - c.w))});
-            }
-        const double walkSlack = steep / 64.0 + 1.0 / 64.0;
+        const double walkSlack = steepestStep(field) / 64.0 + 1.0 / 64.0;
         std::mt19937 g(5);
         std::uniform_real_distribution<double> u(0.0, 1.0);
         int hits = 0, misses = 0, bentUp = 0, straight = 0, checked = 0;
@@ -363,27 +400,9 @@ TEST_CASE("a bent ray's DDM march finds the parabola's first crossing of the hei
             const double tFloor = bend == 0 ? -L / d.z : (d.z + std::sqrt(std::max(d.z * d.z + 4.0 * bend * L, 0.0))) / (2.0 * bend);
             const double tEnd = bend < 0 ? (d.z * d.z + 4.0 * bend * L >= 0 ? std::min(std::abs(tFloor), d.z / bend) : d.z / bend) : std::abs(tFloor);
             const double e = std::max(eChord, std::abs(bend) * (tEnd / 64.0) * (tEnd / 64.0) / 4.0);
-            const auto below = [&](double t) { // how far P(t) lies below the surface (< 0: above); the floor is solid
-                const glm::dvec3 p = o + d * t - glm::dvec3(0.0, 0.0, bend * t * t);
-                glm::dvec2 f;
-                const glm::ivec2 c = kern::dmHeightCell(glm::dvec2(p.x, p.y), f);
-                return std::max(kern::dmBilerp(glm::dvec4(field.cell(c.x, c.y)), f), 0.0) - p.z;
-            };
-            double tNear = -1, tDeep = -1;
-            bool leaves = false;
-            for (double t = 0.0; t < 4096.0; t += 1.0 / 64.0) {
-                const double z = o.z + d.z * t - bend * t * t;
-                if (t > 0 && z > L) { // back above the top: left the shell
-                    leaves = true;
-                    break;
-                }
-                const double b = below(t);
-                if (tNear < 0 && b >= -e - walkSlack) tNear = t;
-                if (b >= e) {
-                    tDeep = t;
-                    break;
-                }
-            }
+            const BentWalk w = walkBentRay(field, o, d, bend, e + walkSlack, e);
+            const double tNear = w.tNear, tDeep = w.tDeep;
+            const bool leaves = w.leaves;
             glm::dvec3 slab;
             const MesoHit h = marchMesoBent<double>(maps, tq, o, d, bend, &slab);
             INFO(function << " k " << k << " bend " << bend << " hit " << h.hit << " t " << h.t << " n " << h.iterations << " near " << tNear << " deep " << tDeep);
@@ -446,11 +465,98 @@ TEST_CASE("a bent ray's DDM march finds the parabola's first crossing of the hei
     CHECK((a.hit == b.hit && a.t == b.t && a.iterations == b.iterations));
     CHECK_THROWS_WITH(marchMesoBent<float>(maps, MesoTechnique{}, o, -d, 0.0), Contains("must enter at the top"));
     CHECK_THROWS_WITH(marchMesoBent<float>(maps, MesoTechnique{}, o, d, std::nan("")), Contains("finite bend"));
-    MesoTechnique relief;
-    relief.method = MesoMethod::Relief;
-    CHECK_THROWS_WITH(marchMesoBent<float>(maps, relief, o, d, 0.0), Contains("DDM over a height field only"));
+    MesoTechnique distance;
+    distance.method = MesoMethod::DistanceMap;
+    CHECK_THROWS_WITH(marchMesoBent<float>(maps, distance, o, d, 0.0), Contains("not the distance map or a solid"));
     const MesoMaps noShadow = buildMesoMaps(mesoFunctionField("grating", 16, 8), mesoMapOptionsFor(MesoTechnique{}, false, ConeSet{4, 1, false, false}));
     CHECK_THROWS_WITH(marchMesoBent<float>(noShadow, MesoTechnique{}, glm::dvec3(1, 1, 8), d, -0.01), Contains("needs shadow cones"));
+}
+
+TEST_CASE("relief mapping and POM along a bent ray find the parabola's first crossing of the height field", "[meso][frame][silhouette]") {
+    // The same walk as the DDM's test above. Relief mapping and POM sample the parabola itself
+    // (no chords) in equal steps dt of its parameter (`linear` of them or, on a parabola longer
+    // than the straight ray to the floor, up to 4 linear: dt is at most tEnd / linear), so their
+    // bound is the linear search's: a crossing of the surface is found in the step where a sample first lies at or
+    // below it. Between two samples above it the parabola can dip below the surface by at most
+    // Lip dt / 2, Lip the rate at which "how far below" changes along it (the field's steepest
+    // step times the horizontal speed, |d.z| + 2 |bend| t vertically). So the hit lies between
+    // the walk's first point within Lip dt / 2 of the surface, less one step, and its first
+    // point Lip dt / 2 below it, plus one step; a ray bent back up that never comes within
+    // Lip dt / 2 of the surface misses, and one that dips that far below before it leaves hits.
+    for (const char* function : {"grating", "waves"}) {
+        const MesoHeightField field = mesoFunctionField(function, 32, 16);
+        const MesoMaps maps = buildMesoMaps(field, mesoMapOptionsFor(MesoTechnique{MesoMethod::Relief}, false));
+        REQUIRE(maps.ddm.grid.empty()); // relief mapping reads heights only
+        const double L = field.layers, steep = steepestStep(field), walkSlack = steep / 64.0 + 1.0 / 64.0;
+        std::mt19937 g(11);
+        std::uniform_real_distribution<double> u(0.0, 1.0);
+        for (const MesoMethod method : {MesoMethod::Relief, MesoMethod::Pom}) {
+            MesoTechnique tq;
+            tq.method = method;
+            tq.linear = 256;
+            tq.binary = 8;
+            int hits = 0, misses = 0, bentUp = 0, straight = 0, longer = 0;
+            for (int k = 0; k < 1500; ++k) {
+                const double elev = 0.1 + 1.3 * u(g), az = 6.283185307179586 * u(g);
+                const glm::dvec3 d(std::cos(elev) * std::cos(az), std::cos(elev) * std::sin(az), -std::sin(elev));
+                const glm::dvec3 o(64.0 * u(g) - 16.0, 64.0 * u(g) - 16.0, L);
+                const double bend = k % 10 == 0 ? 0.0 : (k % 2 == 0 ? -1.0 : 1.0) * std::exp(-9.0 + 7.0 * u(g));
+                bool endsAtTop = false;
+                const double tEnd = kern::dmBentRayEnd(L, d, bend, endsAtTop), dt = tEnd / tq.linear;
+                longer += tEnd > -L / d.z * (1 + 1e-9) ? 1 : 0;
+                const double lip = steep + std::abs(d.z) + 2.0 * std::abs(bend) * (tEnd + dt);
+                const double slack = 0.5 * lip * dt;
+                const BentWalk w = walkBentRay(field, o, d, bend, slack + walkSlack, slack);
+                glm::dvec3 slab;
+                const MesoHit h = marchMesoBent<double>(maps, tq, o, d, bend, &slab);
+                INFO(function << (method == MesoMethod::Pom ? " POM" : " relief") << " k " << k << " bend " << bend << " hit " << h.hit << " t "
+                              << h.t << " n " << h.iterations << " near " << w.tNear << " deep " << w.tDeep << " dt " << dt);
+                bentUp += endsAtTop ? 1 : 0;
+                straight += bend == 0 ? 1 : 0;
+                // Samples: at most 4 linear (+1 for POM's first), + binary for relief; linear where the
+                // parabola is no longer than the straight ray to the floor.
+                const int extra = 1 + (method == MesoMethod::Relief ? tq.binary : 0);
+                CHECK(h.iterations <= 4 * tq.linear + extra);
+                if (tEnd <= -L / d.z) CHECK(h.iterations <= tq.linear + extra);
+                if (w.tNear < 0) {
+                    CHECK_FALSE(h.hit);
+                    ++misses;
+                    continue;
+                }
+                if (w.tDeep < 0) continue; // grazes the surface within the bound: either answer
+                REQUIRE(h.hit);
+                ++hits;
+                CHECK(h.t >= w.tNear - dt - 1.0 / 64.0);
+                CHECK(h.t <= w.tDeep + dt + 1.0 / 64.0);
+                // The slab point is the parabola's at t (no chords).
+                const glm::dvec3 p = o + d * h.t - glm::dvec3(0.0, 0.0, bend * h.t * h.t);
+                CHECK(glm::length(slab - p) <= 1e-12 * (1.0 + h.t));
+            }
+            INFO(function << ": " << hits << " hits, " << misses << " misses, " << bentUp << " rays bent back up, " << straight << " straight, "
+                          << longer << " longer than the straight ray");
+            CHECK(hits > 600);
+            CHECK(longer > 100);
+            CHECK(misses > 30);
+            CHECK(bentUp > 100);
+        }
+    }
+    // A bend of 0 is the straight march, bit for bit, at both precisions; POM and relief differ.
+    const MesoMaps maps = buildMesoMaps(mesoFunctionField("waves", 32, 16), mesoMapOptionsFor(MesoTechnique{MesoMethod::Pom}, false));
+    const glm::dvec3 o(3.3, 7.1, 16.0), d = glm::normalize(glm::dvec3(0.7, 0.2, -0.3));
+    for (const MesoMethod method : {MesoMethod::Relief, MesoMethod::Pom}) {
+        MesoTechnique tq;
+        tq.method = method;
+        const MesoHit a = marchMesoBent<float>(maps, tq, o, d, 0.0), b = marchMeso<float>(maps, tq, o, d);
+        CHECK((a.hit == b.hit && a.t == b.t && a.iterations == b.iterations));
+        const MesoHit c = marchMesoBent<double>(maps, tq, o, d, 0.0), e = marchMeso<double>(maps, tq, o, d);
+        CHECK((c.hit == e.hit && c.t == e.t && c.iterations == e.iterations));
+        // Bad rays: off the top, upward, a bend that is not finite, no linear step.
+        CHECK_THROWS_WITH(marchMesoBent<float>(maps, tq, o - glm::dvec3(0, 0, 1), d, 0.01), Contains("must enter at the top"));
+        CHECK_THROWS_WITH(marchMesoBent<float>(maps, tq, o, -d, 0.01), Contains("view rays go down"));
+        CHECK_THROWS_WITH(marchMesoBent<float>(maps, tq, o, d, std::numeric_limits<double>::infinity()), Contains("finite bend"));
+        tq.linear = 0;
+        CHECK_THROWS_WITH(marchMesoBent<float>(maps, tq, o, d, 0.01), Contains("at least one linear step"));
+    }
 }
 
 TEST_CASE("a frame mesh's shape is its surface's second fundamental form in the texture's coordinates", "[meso][frame][silhouette]") {
@@ -658,8 +764,12 @@ TEST_CASE("a mesostructure scene's base surface", "[meso][frame][scene]") {
         CHECK(buildMesoSceneMaps(bent).ddm.cones.shadow);
         CHECK_FALSE(buildMesoSceneMaps(parse(scene + "}")).ddm.cones.shadow);
         CHECK_THROWS_WITH(parse(R"({"mesostructure": {}, "effects": {"bentRays": true}})"), Contains("'effects.bentRays' needs a 'base'"));
-        CHECK_THROWS_WITH(parse(scene + R"(, "effects": {"bentRays": true, "technique": "pom"}})"),
-                          Contains("'effects.bentRays' needs the technique \"ddm\""));
+        CHECK_THROWS_WITH(parse(scene + R"(, "effects": {"bentRays": true, "technique": "distance_map"}})"),
+                          Contains("'effects.bentRays' needs the technique \"ddm\", \"relief\" or \"pom\""));
+        // Relief mapping and POM bend their rays too, and read only heights: no DDM is built for them.
+        const MesoSceneDesc bentPom = parse(scene + R"(, "effects": {"bentRays": true, "technique": "pom"}})");
+        CHECK((bentPom.bentRays && bentPom.placement.shape));
+        CHECK(buildMesoSceneMaps(bentPom).ddm.grid.empty());
         CHECK_THROWS_WITH(parse(R"({"mesostructure": {"mesh": "../chainmail.obj"}, "base": {"mesh": "builtin:torus", "placement": "face"},
                                    "camera": {"eye": [0, 0, -5], "up": [0, 1, 0]}, "effects": {"bentRays": true}})"),
                           Contains("marched along straight rays: no 'effects.bentRays'"));

@@ -65,6 +65,7 @@ struct Push {
 static_assert(sizeof(Push) == 76);
 constexpr std::int32_t kSolidMethod = 4; // parity_meso.comp's method of the solid's march
 constexpr std::int32_t kBentMethod = 5; // and of the DDM along a bent ray
+constexpr std::int32_t kBentHeightMethod = 6; // and of relief mapping / POM along a bent ray (POM: binary -1)
 
 // Other devices (not strict): their sqrt and division need not round correctly (Vulkan allows
 // a few ULP) and they may fuse, so a ray's decisions can go the other way where an intermediate
@@ -261,6 +262,8 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
         {"march Ddm 4x1 no quadrics bent rays t+d", C, technique(DDM, 128, kMesoChordError, false, 0), 3},
         {"march Relief 32 + 6", C, relief, 0},
         {"march POM 32", C, pom, 0},
+        {"march Relief 32 + 6 bent rays", C, relief, 3},
+        {"march POM 32 bent rays", C, pom, 3},
         {"march Solid 4x1 exit(v)+d", S, technique(DDM, 256, -1, false, 1), 0},
         {"march Solid 4x1 t+d", S, technique(DDM, 256, -1, false, 0), 0},
         {"march Solid 4x1+shadow shadow", S, technique(DDM, 256, -1, false, 1), 1},
@@ -322,13 +325,16 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
             const std::uint32_t groupsY = (count + groupsX * 64 - 1) / (groupsX * 64);
             const MesoTechnique& tq = row->tq;
             const Push push{vulkan::mesoGpuSize(maps),
-                            isSolid ? kSolidMethod : row->rays == 3 ? kBentMethod : static_cast<std::int32_t>(tq.method),
+                            isSolid            ? kSolidMethod
+                            : row->rays != 3   ? static_cast<std::int32_t>(tq.method)
+                            : tq.method == DDM ? kBentMethod
+                                               : kBentHeightMethod,
                             tq.iterations,
                             static_cast<float>(tq.eps),
                             tq.quadrics ? 1 : 0,
                             tq.exitRule,
                             tq.linear,
-                            tq.binary,
+                            tq.method == MesoMethod::Pom ? -1 : tq.binary,
                             count,
                             groupsX * 64};
             const auto mb = gpuMaps.all();

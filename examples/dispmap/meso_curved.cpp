@@ -47,6 +47,21 @@ struct CurvedCell {
     std::size_t bentFalseHits = 0, bentFalseMisses = 0;
 };
 
+// One height-field marcher (relief mapping, POM) on a cell's rays: planar and bent.
+struct HeightCell {
+    std::vector<double> planarError, bentError;
+    std::size_t planarFalseHits = 0, planarFalseMisses = 0, bentFalseHits = 0, bentFalseMisses = 0;
+    void add(const MesoHit& planar, const glm::dvec3& planarPoint, const MesoHit& bent, const glm::dvec3& bentPoint, bool exactHits,
+             const glm::dvec3& exact) {
+        planarFalseHits += planar.hit && !exactHits ? 1u : 0u;
+        planarFalseMisses += !planar.hit && exactHits ? 1u : 0u;
+        bentFalseHits += bent.hit && !exactHits ? 1u : 0u;
+        bentFalseMisses += !bent.hit && exactHits ? 1u : 0u;
+        if (planar.hit && exactHits) planarError.push_back(glm::length(planarPoint - exact));
+        if (bent.hit && exactHits) bentError.push_back(glm::length(bentPoint - exact));
+    }
+};
+
 // The cylinder's exact first hit of the ray P + t D (t >= 0, P on the outer surface), as the
 // point's voxel coordinates (x, y along the texture, z the height), or false (left the shell).
 bool exactHit(const MesoHeightField& f, double R, double delta, double T, const glm::dvec3& P, const glm::dvec3& D, glm::dvec3& hit) {
@@ -107,6 +122,12 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
     out << "| delta / R | incidence | error p50 | error p90 | false hits | false hits, silhouettes | false misses, silhouettes | "
            "bent: error p50 | bent: error p90 | bent: false hits | bent: false misses |\n"
            "|---|---|---|---|---|---|---|---|---|---|---|\n";
+    // Relief mapping (32 steps + 6 bisections) and POM (32 steps) on the same rays, planar and
+    // bent (kern::dmMesoMarchHeightBent): a second table.
+    MesoTechnique relief, pom;
+    relief.method = MesoMethod::Relief;
+    pom.method = MesoMethod::Pom;
+    std::ostringstream heightRows;
     std::mt19937 gen(2026);
     std::uniform_real_distribution<double> u01(0.0, 1.0);
     for (const double ratio : {0.003, 0.01, 0.03, 0.1, 0.3}) {
@@ -114,6 +135,7 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
         const glm::dvec3 vpu(field.width, field.height, field.layers / delta);
         for (const auto& band : incidence) {
             CurvedCell cell;
+            HeightCell reliefCell, pomCell;
             for (int r = 0; r < 400; ++r) {
                 const double theta = 3.141592653589793 * (2.0 * u01(gen) - 1.0), z = 10.0 * T * u01(gen);
                 const glm::dvec3 n(std::cos(theta), std::sin(theta), 0.0), tangent(-std::sin(theta), std::cos(theta), 0.0), axis(0, 0, 1);
@@ -149,7 +171,25 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
                     cell.texelError.push_back(glm::length(planar.point(o, d) - exact));
                 }
                 if (bent.hit && exactHits) cell.bentError.push_back(glm::length(slab - exact));
+                const double bend = kern::dmShellBend(d, shape, vpu);
+                for (auto [tqh, hc] : {std::pair{&relief, &reliefCell}, std::pair{&pom, &pomCell}}) {
+                    const MesoHit hp = marchMeso<double>(maps, *tqh, o, d);
+                    glm::dvec3 hs(0.0);
+                    const MesoHit hb = marchMesoBent<double>(maps, *tqh, o, d, bend, &hs);
+                    hc->add(hp, hp.point(o, d), hb, hs, exactHits, exact);
+                }
             }
+            heightRows << std::defaultfloat << std::setprecision(3) << "| " << ratio << " | " << band[0] << "–" << band[1] << "°";
+            for (const HeightCell* hc : {&reliefCell, &pomCell}) {
+                const double n = static_cast<double>(cell.rays);
+                heightRows << std::defaultfloat << std::setprecision(3) << " | " << percentileOf(hc->planarError, 0.5) << " / "
+                           << percentileOf(hc->planarError, 0.9) << " | " << std::fixed << std::setprecision(1)
+                           << 100.0 * static_cast<double>(hc->planarFalseHits) / n << " % / " << 100.0 * static_cast<double>(hc->planarFalseMisses) / n
+                           << " % | " << std::defaultfloat << std::setprecision(3) << percentileOf(hc->bentError, 0.5) << " / "
+                           << percentileOf(hc->bentError, 0.9) << " | " << std::fixed << std::setprecision(1)
+                           << 100.0 * static_cast<double>(hc->bentFalseHits) / n << " % / " << 100.0 * static_cast<double>(hc->bentFalseMisses) / n << " %";
+            }
+            heightRows << " |\n";
             std::ostringstream row;
             row << std::setprecision(3) << "| " << ratio << " | " << band[0] << "–" << band[1] << "° | " << percentileOf(cell.texelError, 0.5)
                 << " | " << percentileOf(cell.texelError, 0.9) << " | " << std::fixed << std::setprecision(1)
@@ -163,6 +203,13 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
             out << row.str();
         }
     }
+    out << "\nRelief mapping (32 linear steps + 6 bisections) and POM (32 steps) on the same rays and field, planar (the ray in the entry's "
+           "frame) and bent (kern::dmMesoMarchHeightBent: the linear search and its refinement on the parabola itself); error "
+           "p50 / p90 as above, false hits / false misses against the exact shell:\n\n"
+           "| delta / R | incidence | relief: error | relief: false hits / misses | relief bent: error | relief bent: false hits / misses "
+           "| POM: error | POM: false hits / misses | POM bent: error | POM bent: false hits / misses |\n"
+           "|---|---|---|---|---|---|---|---|---|---|\n"
+        << heightRows.str();
 
     // The renderer on a curved base beside the plane: the Spot scene of tests/data.
     if (!args.gpu) return;
@@ -220,6 +267,16 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
         o.silhouettes = false;
         o.bentRays = true;
         out << "| Spot, bent rays | " << stats(vulkan::renderMeso(ctx, m, o)) << " |\n";
+        // Relief mapping and POM on the same base, planar and bent (the DDM still casts the shadows).
+        for (const MesoMethod method : {MesoMethod::Relief, MesoMethod::Pom}) {
+            o.technique = MesoTechnique{};
+            o.technique.method = method;
+            const std::string name = method == MesoMethod::Relief ? "relief 32 + 6" : "POM 32";
+            o.bentRays = false;
+            out << "| Spot, " << name << " | " << stats(vulkan::renderMeso(ctx, m, o)) << " |\n";
+            o.bentRays = true;
+            out << "| Spot, " << name << ", bent rays | " << stats(vulkan::renderMeso(ctx, m, o)) << " |\n";
+        }
     } catch (const Error& e) {
         out << "\n(no renderer rows: " << e.what() << ")\n";
     }

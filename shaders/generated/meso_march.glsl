@@ -78,6 +78,31 @@ DM_TFUNC bool dmMesoMarchDdm(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int cone
     return hit;
 }
 
+// A ray bent by the base's curvature, in the slab's own coordinates (the top at z = L): the
+// parabola P(t) = o + t d - bend t^2 z from the entry o (o.z = L, d going down, unit), t the
+// parameter of the straight world ray (dmMesoMarchDdmBent below).
+DM_TFUNC rvec3 dmBentPoint(rvec3 o, rvec3 d, real bend, real t) {
+    return o + d * t - rvec3(real(0), real(0), bend * (t * t));
+}
+
+// Where that parabola ends: on the floor, z(t) = L + d.z t - bend t^2 = 0 (the smaller root, if
+// it gets there), or, bent up (bend < 0, convex), back at the top at t = d.z / bend when that
+// comes first (endsAtTop: the ray has left the shell there).
+DM_TFUNC real dmBentRayEnd(real L, rvec3 d, real bend, DM_OUT(bool) endsAtTop) {
+    real tEnd = real(0);
+    real disc = d.z * d.z + real(4) * bend * L;
+    if (disc >= real(0)) {
+        tEnd = (real(2) * L) / (sqrt(disc) - d.z);
+    }
+    endsAtTop = false;
+    if (bend < real(0)) {
+        real tTop = d.z / bend;
+        endsAtTop = !(disc >= real(0)) || tTop < tEnd;
+        tEnd = endsAtTop ? tTop : tEnd;
+    }
+    return tEnd;
+}
+
 // The DDM march along a ray bent by the base's curvature (Donnelly's locally planar model with
 // the quadric of the shell's top, kern::dmShellBend): in the slab's own coordinates, where the
 // top lies at z = L everywhere, the straight world ray from the entry o (o.z = L, d going down,
@@ -94,20 +119,8 @@ DM_TFUNC bool dmMesoMarchDdm(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int cone
 // hit, as dmMesoMarchDdm). bend == 0 is dmMesoMarchDdm itself.
 DM_TFUNC bool dmMesoMarchDdmBent(DmMesoMaps m, rvec3 o, rvec3 d, real bend, int coneM, int coneN, int maxIterations, bool quadrics,
                                  int exitRule, real tol, real chordError, DM_OUT(real) tHit, DM_OUT(rvec3) pHit, DM_OUT(int) count) {
-    real L = real(m.layers);
-    // Where the parabola ends: the floor, z(t) = L + d.z t - bend t^2 = 0 (the smaller root, if
-    // it gets there), or the top again at t = d.z / bend when bent up.
-    real tEnd = real(0);
-    real disc = d.z * d.z + real(4) * bend * L;
-    if (disc >= real(0)) {
-        tEnd = (real(2) * L) / (sqrt(disc) - d.z);
-    }
-    bool endsAtTop = false; // bent back up to the top before the floor: out of the shell
-    if (bend < real(0)) {
-        real tTop = d.z / bend;
-        endsAtTop = !(disc >= real(0)) || tTop < tEnd;
-        tEnd = endsAtTop ? tTop : tEnd;
-    }
+    bool endsAtTop; // bent back up to the top before the floor: out of the shell
+    real tEnd = dmBentRayEnd(real(m.layers), d, bend, endsAtTop);
     if (bend == real(0)) {
         bool straight = dmMesoMarchDdm(m, o, d, coneM, coneN, maxIterations, quadrics, exitRule, tol, real(3.0e38), tHit, count);
         pHit = o + d * tHit;
@@ -120,8 +133,8 @@ DM_TFUNC bool dmMesoMarchDdmBent(DmMesoMaps m, rvec3 o, rvec3 d, real bend, int 
     for (int k = 0; k < chords; ++k) {
         real ta = tEnd * (real(k) / real(chords));
         real tb = tEnd * (real(k + 1) / real(chords));
-        rvec3 pa = o + d * ta - rvec3(real(0), real(0), bend * (ta * ta));
-        rvec3 pb = o + d * tb - rvec3(real(0), real(0), bend * (tb * tb));
+        rvec3 pa = dmBentPoint(o, d, bend, ta);
+        rvec3 pb = dmBentPoint(o, d, bend, tb);
         rvec3 u = pb - pa;
         real len = sqrt(dmDot3(u, u));
         if (!(len > real(0))) {
@@ -154,7 +167,7 @@ DM_TFUNC bool dmMesoMarchDdmBent(DmMesoMaps m, rvec3 o, rvec3 d, real bend, int 
     }
     // Only a ray bent back to the top gets here: it has left the shell.
     tHit = tEnd;
-    pHit = o + d * tEnd - rvec3(real(0), real(0), bend * (tEnd * tEnd));
+    pHit = dmBentPoint(o, d, bend, tEnd);
     return false;
 }
 
@@ -224,13 +237,17 @@ DM_TFUNC bool dmMesoMarchDdmSolid(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int
     return hit;
 }
 
-// Height of the point at t above the height field (one fetch, counted).
-DM_TFUNC real dmMesoAbove(DmMesoMaps m, rvec3 o, rvec3 d, real t, DM_INOUT(int) count) {
-    rvec3 p = o + d * t;
+// Height of the point p above the height field (one fetch, counted).
+DM_TFUNC real dmMesoAboveAt(DmMesoMaps m, rvec3 p, DM_INOUT(int) count) {
     rvec2 f;
     ivec2 c = dmHeightCell(rvec2(p.x, p.y), f);
     count = count + 1;
     return dmHeightAbove(p, rvec4(dmMesoFetchCell(m, c.x, c.y)), f);
+}
+
+// Height of the point at t on the ray o + t d above the height field.
+DM_TFUNC real dmMesoAbove(DmMesoMaps m, rvec3 o, rvec3 d, real t, DM_INOUT(int) count) {
+    return dmMesoAboveAt(m, o + d * t, count);
 }
 
 // Relief mapping (Policarpo et al. 2005): `linear` equal steps from the top to the bottom
@@ -265,6 +282,66 @@ DM_TFUNC bool dmMesoMarchHeight(DmMesoMaps m, rvec3 o, rvec3 d, int linear, int 
         bracket = dmBisectStep(bracket, dmMesoAbove(m, o, d, real(0.5) * (bracket.x + bracket.y), count));
     }
     tHit = real(0.5) * (bracket.x + bracket.y);
+    return true;
+}
+
+// Relief mapping and POM (dmMesoMarchHeight) along a ray bent by the base's curvature: the
+// parabola dmBentPoint from the entry o at the top, equal steps of its parameter from the top to
+// where it ends (dmBentRayEnd: the floor, or the top again when a convex base bends it back up),
+// then the bisections or POM's crossing on the same parabola. The steps are `linear`, or more
+// where the parabola is longer than the straight ray to the floor: never longer than the
+// straight ray's steps (so thin walls are stepped over no more often than by the planar
+// march), at most 4 linear (the most there can be: a convex parabola that just misses the
+// floor, d.z^2 = 4 |bend| L, is 4 times as long as the straight ray). A ray bent back up
+// with no sample at or below the surface has left the shell: a miss (tHit, pHit its end). Writes
+// the hit's parameter on the straight ray (tHit: the world point is the straight ray's there)
+// and its point in the slab's coordinates (pHit: where the detail is read). bend == 0 is
+// dmMesoMarchHeight itself. View rays only (o.z = L, d.z < 0) and linear >= 1: the caller
+// checks.
+DM_TFUNC bool dmMesoMarchHeightBent(DmMesoMaps m, rvec3 o, rvec3 d, real bend, int linear, int binary, DM_OUT(real) tHit,
+                                    DM_OUT(rvec3) pHit, DM_OUT(int) count) {
+    if (bend == real(0)) {
+        bool straight = dmMesoMarchHeight(m, o, d, linear, binary, tHit, count);
+        pHit = o + d * tHit;
+        return straight;
+    }
+    bool endsAtTop;
+    real tEnd = dmBentRayEnd(real(m.layers), d, bend, endsAtTop);
+    real straightStep = dmPlaneHit(o, d, real(0)) / real(linear);
+    int steps = max(linear, int(min(ceil(tEnd / straightStep), real(4 * linear))));
+    count = 0;
+    real dt = tEnd / real(steps);
+    rvec2 bracket = rvec2(real(0), dt);
+    real abovePrev = real(0);
+    if (binary < 0) {
+        abovePrev = dmMesoAboveAt(m, o, count);
+    }
+    real aboveCur = real(0);
+    bool crossed = false;
+    for (int i = 0; i < steps; ++i) {
+        aboveCur = dmMesoAboveAt(m, dmBentPoint(o, d, bend, bracket.y), count);
+        real keep = aboveCur;
+        if (dmLinearSearchStep(bracket, dt, aboveCur)) {
+            crossed = true;
+            break;
+        }
+        abovePrev = keep;
+    }
+    if (endsAtTop && !crossed) {
+        tHit = tEnd;
+        pHit = dmBentPoint(o, d, bend, tEnd);
+        return false;
+    }
+    if (binary < 0) {
+        tHit = dmPomIntersect(bracket, abovePrev, aboveCur);
+    } else {
+        for (int j = 0; j < binary; ++j) {
+            real mid = real(0.5) * (bracket.x + bracket.y);
+            bracket = dmBisectStep(bracket, dmMesoAboveAt(m, dmBentPoint(o, d, bend, mid), count));
+        }
+        tHit = real(0.5) * (bracket.x + bracket.y);
+    }
+    pHit = dmBentPoint(o, d, bend, tHit);
     return true;
 }
 

@@ -187,5 +187,12 @@ DmMesoHit dmMarchHeightSearch(DmMesoSize s, vec3 o, vec3 d, int linear, int bina
     r.hit = dmMesoMarchHeight(s, o, d, linear, binary, r.t, r.iterations);
     return r;
 }
+// The same along the ray bent by the base's curvature (bend: dmShellBend); p: the hit in the
+// slab's coordinates (t is the straight ray's).
+DmMesoHit dmMarchHeightSearchBent(DmMesoSize s, vec3 o, vec3 d, float bend, int linear, int binary, out vec3 p) {
+    DmMesoHit r;
+    r.hit = dmMesoMarchHeightBent(s, o, d, bend, linear, binary, r.t, p, r.iterations);
+    return r;
+}
 
 #endif // DISPMAP_MESO_MARCH_GLSL

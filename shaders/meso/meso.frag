@@ -13,8 +13,8 @@
 // (it leaves through the top, e.g. from a back face) writes the far plane: what lies behind
 // it shows through; with kSilhouettes so does a hit past the point where the ray leaves the
 // curved shell (dmShellExit on the interpolated second fundamental form); with kBentRays the
-// DDM marches the view ray bent by that curvature in the slab's own coordinates (it then leaves
-// the shell by itself). Every formula is a kernel (kernels/meso.h, kernels/meso_shade.h);
+// DDM, relief mapping or POM marches the view ray bent by that curvature in the slab's own
+// coordinates (it then leaves the shell by itself). Every formula is a kernel (kernels/meso.h, kernels/meso_shade.h);
 // march.glsl holds the loops.
 #extension GL_GOOGLE_include_directive : require
 #define DM_MESO_SET 0
@@ -39,7 +39,7 @@ layout(constant_id = 10) const bool kAlbedo = false;    // the albedo image (bin
 layout(constant_id = 11) const bool kNormalMap = false; // the normal map (binding 7 from params.dims2.y on) shades, else the height field's normal
 layout(constant_id = 12) const bool kSolid = false;     // a non-height-field solid (bindings 8, 9): its DDM march (kMethod 1) and corner normals
 layout(constant_id = 13) const bool kSilhouettes = false; // on a base mesh: hits past where the ray leaves the curved shell are misses (dmShellExit)
-layout(constant_id = 14) const bool kBentRays = false;  // on a base mesh, the DDM on a height field: the view ray bent by the base's curvature (dmMesoMarchDdmBent)
+layout(constant_id = 14) const bool kBentRays = false;  // on a base mesh, the DDM, relief or POM on a height field: the view ray bent by the base's curvature (dmMesoMarchDdmBent, dmMesoMarchHeightBent)
 
 layout(location = 0) in vec3 worldPos;
 layout(location = 1) in vec2 tex;
@@ -105,6 +105,9 @@ void main() {
         h = dmMarchDdmBent(s, o, d, bend, kIterations, kQuadrics, kExitRule, 0.05, bentPoint); // 0.05: kMesoChordError
     } else if (kMethod == 1) {
         h = dmMarchDdm(s, o, d, kIterations, kQuadrics, kExitRule);
+    } else if (kBentRays && kBase != 0) {
+        bend = dmShellBend(d, shell, vpu);
+        h = dmMarchHeightSearchBent(s, o, d, bend, kLinear, kMethod == 3 ? -1 : kBinary, bentPoint);
     } else {
         h = dmMarchHeightSearch(s, o, d, kLinear, kMethod == 3 ? -1 : kBinary);
     }

@@ -21,7 +21,7 @@ layout(push_constant) uniform Push {
     int coneM;
     int coneN;
     float tol;
-    int method;    // 0 distance map, 1 DDM, 2 relief, 3 POM (MesoMethod's order), 4 the solid's DDM march, 5 the DDM along a bent ray (bend: o.w; eps: the chord error)
+    int method;    // 0 distance map, 1 DDM, 2 relief, 3 POM (MesoMethod's order), 4 the solid's DDM march, 5 the DDM along a bent ray (bend: o.w; eps: the chord error), 6 relief (binary >= 0) or POM (binary < 0) along a bent ray
     int iterations;
     float eps;
     int quadrics;
@@ -66,6 +66,9 @@ void main() {
     } else if (pc.method == 5) {
         vec3 p;
         h = dmMarchDdmBent(s, o, d, rays[i].o.w, pc.iterations, pc.quadrics != 0, pc.exitRule, pc.eps, p);
+    } else if (pc.method == 6) {
+        vec3 p;
+        h = dmMarchHeightSearchBent(s, o, d, rays[i].o.w, pc.linear, pc.binary, p);
     } else if (pc.method == 0) {
         h = dmMarchDistanceMap(s, o, d, pc.iterations, pc.eps);
     } else if (pc.method == 1) {

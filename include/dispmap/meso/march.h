@@ -269,6 +269,33 @@ template <class real> MesoHit marchHeightSearch(const MesoHeightField& hf, const
     return r;
 }
 
+/// marchHeightSearch along the ray bent by a curved base (kern::dmMesoMarchHeightBent; `bend`
+/// from kern::dmShellBend at the entry o0, a view ray from the top: o0.z = layers, d0 going
+/// down). The hit's t is the straight ray's; `slabPoint` (if given) gets the hit in the slab's
+/// coordinates, where the detail is read. A ray a convex base bends back up to the top without
+/// meeting the surface misses. ArgumentError as marchHeightSearch, and for an entry off the top
+/// or a bend that is not finite.
+template <class real>
+MesoHit marchHeightSearchBent(const MesoHeightField& hf, const glm::dvec3& o0, const glm::dvec3& d0, double bend, int linear, int binary,
+                              glm::dvec3* slabPoint = nullptr) {
+    detail::checkRay(o0, d0, "marchHeightSearchBent");
+    if (!(d0.z < 0)) throw ArgumentError("relief mapping / POM: view rays go down (d.z < 0)");
+    if (linear < 1) throw ArgumentError("relief mapping / POM: at least one linear step");
+    if (!(o0.z == hf.layers) || !std::isfinite(bend))
+        throw ArgumentError("marchHeightSearchBent: the ray must enter at the top (z = layers), with a finite bend");
+    kern::DmMesoMapsT<real> maps;
+    maps.layers = hf.layers;
+    maps.field = &hf;
+    MesoHit r;
+    real t = 0;
+    glm::vec<3, real> p;
+    r.hit = kern::dmMesoMarchHeightBent(maps, detail::v3<real>(o0), detail::v3<real>(d0), static_cast<real>(bend), linear, binary, t, p,
+                                        r.iterations);
+    r.t = static_cast<double>(t);
+    if (slabPoint) *slabPoint = glm::dvec3(p);
+    return r;
+}
+
 /// The exact first hit of o + t d, t in [t0, t1], on the triangles listed for voxel v (every
 /// copy of each across the periodic seam next to v: the reference does not trust the copy its
 /// entry names), Moller-Trumbore in double with the mesh's own vertices.
@@ -468,13 +495,16 @@ inline MesoMapOptions mesoMapOptionsFor(const MesoTechnique& technique, bool sha
 }
 
 /// One view ray through `maps` by `technique` along the ray bent by a curved base (`bend`:
-/// kern::dmShellBend at the entry; marchDdmBent): the DDM on a height field only
-/// (ArgumentError for another technique or a solid). `slabPoint`: as marchDdmBent.
+/// kern::dmShellBend at the entry): the DDM (marchDdmBent), relief mapping or POM
+/// (marchHeightSearchBent) on a height field (ArgumentError for the distance map or a solid).
+/// `slabPoint`: as marchDdmBent.
 template <class real>
 MesoHit marchMesoBent(const MesoMaps& maps, const MesoTechnique& tq, const glm::dvec3& o, const glm::dvec3& d, double bend,
                       glm::dvec3* slabPoint = nullptr) {
-    if (tq.method != MesoMethod::Ddm || maps.isSolid())
-        throw ArgumentError("marchMesoBent: bent rays are marched by the DDM over a height field only");
+    if (tq.method == MesoMethod::DistanceMap || maps.isSolid())
+        throw ArgumentError("marchMesoBent: bent rays are marched by the DDM, relief mapping or POM over a height field, not the distance map or a solid");
+    if (tq.method != MesoMethod::Ddm)
+        return marchHeightSearchBent<real>(maps.field, o, d, bend, tq.linear, tq.method == MesoMethod::Pom ? -1 : tq.binary, slabPoint);
     DdmMarch opt;
     opt.maxIterations = tq.iterations;
     opt.quadrics = tq.quadrics;

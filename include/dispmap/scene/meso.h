@@ -96,8 +96,8 @@ struct MesoSceneDesc {
     /// "effects.silhouettes": the detail's own silhouettes on the base (needs "base"; the
     /// base's frames then carry its curvature, FrameMeshOptions::shape).
     bool silhouettes = false;
-    /// "effects.bentRays": the view ray bent by the base's curvature (the DDM on a height field,
-    /// on a "base" only; MesoRenderOptions::bentRays).
+    /// "effects.bentRays": the view ray bent by the base's curvature (the DDM, relief mapping or
+    /// POM on a height field, on a "base" only; MesoRenderOptions::bentRays).
     bool bentRays = false;
     /// The base surface ("base"): a surface scene's mesh, isolation and displacement (no
     /// camera, lights or effects of its own); none: the plane.
@@ -349,7 +349,8 @@ inline glm::dvec3 mesoVec3(const nlohmann::json& j, const char* key, glm::dvec3 
     return r;
 }
 inline MesoMapOptions mesoSceneMapOptions(const MesoSceneDesc& s) {
-    MesoMapOptions o = mesoMapOptionsFor(s.technique, s.shadows || s.bentRays, s.cones); // bent rays rise again: upward cones
+    // The DDM's bent rays rise again (upward cones); relief mapping and POM read only heights.
+    MesoMapOptions o = mesoMapOptionsFor(s.technique, s.shadows || (s.bentRays && s.technique.method == MesoMethod::Ddm), s.cones);
     o.block = s.block;
     return o;
 }
@@ -592,7 +593,8 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
     if (j.contains("base")) parseMesoBase(j["base"], name, baseDir, s);
     if (s.silhouettes && !s.base) throw fail("'effects.silhouettes' needs a 'base' (the plane z = 0 has no silhouettes of its own)");
     if (s.bentRays && !s.base) throw fail("'effects.bentRays' needs a 'base' (the plane z = 0 is not curved)");
-    if (s.bentRays && s.technique.method != MesoMethod::Ddm) throw fail("'effects.bentRays' needs the technique \"ddm\"");
+    if (s.bentRays && s.technique.method == MesoMethod::DistanceMap)
+        throw fail("'effects.bentRays' needs the technique \"ddm\", \"relief\" or \"pom\" (the distance map marches straight rays)");
     s.placement.shape = s.silhouettes || s.bentRays;
     if (!s.base && !(s.eye.z > 0)) throw fail("'camera.eye' must be above the plane z = 0 (eye.z > 0)");
     if (!(glm::length(s.target - s.eye) > 0)) throw fail("'camera.eye' and 'camera.target' are the same point");

@@ -82,12 +82,14 @@ struct MesoRenderOptions : MesoLook {
     /// second fundamental form, kern::dmShellExit) is a miss, and so is a shadow ray's. Needs
     /// a base built with FrameMeshOptions::shape. Off: the locally planar slab everywhere.
     bool silhouettes = false;
-    /// The view ray bent by the base's curvature (kern::dmMesoMarchDdmBent): in the slab's own
-    /// coordinates the straight world ray is a parabola, marched as chords, so the detail lies
-    /// at its depth below the curved top rather than below the entry's tangent plane, and a
-    /// ray bent back up leaves the shell by itself (silhouettes without the cut). The DDM on a
-    /// height field only; needs a base built with FrameMeshOptions::shape. Shadow rays stay
-    /// straight (cut with `silhouettes`).
+    /// The view ray bent by the base's curvature (kern::dmMesoMarchDdmBent,
+    /// kern::dmMesoMarchHeightBent): in the slab's own coordinates the straight world ray is a
+    /// parabola, marched as chords by the DDM and sampled along the parabola itself by relief
+    /// mapping and POM, so the detail lies at its depth below the curved top rather than below
+    /// the entry's tangent plane, and a ray bent back up leaves the shell by itself (silhouettes
+    /// without the cut). The DDM, relief mapping or POM on a height field (not the distance map,
+    /// not a solid); needs a base built with FrameMeshOptions::shape. Shadow rays stay straight
+    /// (cut with `silhouettes`).
     bool bentRays = false;
     double ambient = 0.2;
     glm::dvec3 background{0.12, 0.13, 0.16};
