@@ -35,7 +35,8 @@ TEST_CASE("albedo mips are box averages down to one texel", "[meso][albedo]") {
     const MesoAlbedo a = mesoAlbedo(8, 4, pattern(8, 4));
     REQUIRE(a.levels() == 4); // 8 x 4, 4 x 2, 2 x 1, 1 x 1
     CHECK((a.width(1) == 4 && a.height(1) == 2 && a.width(2) == 2 && a.height(2) == 1 && a.width(3) == 1 && a.height(3) == 1));
-    CHECK(a.words.size() == 1 + 4 * 4 + 32 + 8 + 2 + 1);
+    CHECK(a.words.size() == 1 + 4 * 4 + 2 + 32 + 8 + 2 + 1); // count, levels, shift, texels
+    CHECK(a.shift() == glm::vec2(0.0f));
     // Level 1 texel (1, 0): level-0 texels x 2..3, y 0..1: red (0 + 255 + 0 + 255) / 4 rounded,
     // green (2 + 3 + 12 + 13) / 4 = 7.5, rounded half up to 8.
     const std::uint32_t t = a.texel(1, 1, 0);
@@ -78,6 +79,17 @@ TEST_CASE("albedo sampling: bilinear between texels, wrapping, trilinear between
         worst = std::max(worst, glm::length(glm::dvec4(sampleMesoAlbedo<float>(a, p, lod)) - glm::dvec4(sampleMesoAlbedo<double>(a, p, lod))));
     }
     CHECK(worst < 1e-5); // a few float ULP of O(1) values through two lerps
+    // A shift (texels of level 0) moves where every level is read: (s, t) shifted reads what
+    // (s + shift.x / w, t + shift.y / h) reads unshifted, in both precisions and on every level.
+    const MesoAlbedo moved = mesoAlbedo(4, 4, pattern(4, 4), true, glm::vec2(1.5f, -0.25f));
+    CHECK(moved.shift() == glm::vec2(1.5f, -0.25f));
+    for (int i = 0; i < 200; ++i) {
+        const glm::dvec2 p(u(g), u(g));
+        const double lod = std::abs(u(g)) / 2;
+        const glm::dvec2 q = p + glm::dvec2(1.5 / 4, -0.25 / 4);
+        CHECK(glm::length(glm::dvec4(sampleMesoAlbedo<double>(moved, p, lod)) - glm::dvec4(sampleMesoAlbedo<double>(a, q, lod))) < 1e-12);
+        CHECK(glm::length(glm::dvec4(sampleMesoAlbedo<float>(moved, p, lod)) - glm::dvec4(sampleMesoAlbedo<float>(a, q, lod))) < 1e-5);
+    }
 }
 
 TEST_CASE("the albedo's level follows the pixel's footprint", "[meso][albedo]") {
@@ -91,6 +103,8 @@ TEST_CASE("bad albedos are clear errors", "[meso][albedo][inputs]") {
     CHECK_THROWS_WITH(mesoAlbedo(0, 4, {}), Contains("image size 0 x 4 out of range"));
     CHECK_THROWS_WITH(mesoAlbedo(4097, 1, std::vector<std::uint8_t>(4 * 4097)), Contains("out of range (1 .. 4096)"));
     CHECK_THROWS_WITH(mesoAlbedo(4, 4, std::vector<std::uint8_t>(63)), Contains("63 bytes for 4 x 4 RGBA texels"));
+    CHECK_THROWS_WITH(mesoAlbedo(4, 4, std::vector<std::uint8_t>(64), true, glm::vec2(std::nanf(""), 0.0f)), Contains("not finite or beyond"));
+    CHECK_THROWS_WITH(mesoAlbedo(4, 2, std::vector<std::uint8_t>(32), true, glm::vec2(0.0f, 2.5f)), Contains("not finite or beyond"));
     CHECK_THROWS_WITH(sampleMesoAlbedo<float>(MesoAlbedo{}, {0, 0}, 0), Contains("the albedo is empty"));
     const MesoAlbedo a = mesoAlbedo(2, 2, pattern(2, 2));
     CHECK_THROWS_WITH(sampleMesoAlbedo<float>(a, {std::nan(""), 0}, 0), Contains("not finite"));
@@ -151,6 +165,23 @@ TEST_CASE("an albedo paired with the height image colours each field sample with
     // rounding; texel 4i is 1.5 texels off, about 100 (2 pi 2 / 64) 1.5 = 29 levels where the slope is steepest.
     CHECK(shifted < 6.0);
     CHECK(before > 3 * shifted);
+    // The shift is applied where the image is read (MesoAlbedo::shift), not by resampling the
+    // image: anywhere, the albedo is the original image's bilinear value 1.5 texels on, to
+    // float rounding. A resampled copy (rounded to 8 bits, then interpolated again) was off by
+    // up to half a level, and blurred detail a texel wide.
+    CHECK(albedo->shift() == glm::vec2(1.5f));
+    std::mt19937 g(7);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    double direct = 0;
+    for (int k = 0; k < 2000; ++k) {
+        const glm::dvec2 uv(u(g), u(g));
+        const double want = detail::bilinearWrapped(uv.x * n + 1.5, uv.y * n + 1.5, n, n, [&](int i, int j) {
+            return double(c.rgba[4 * (static_cast<std::size_t>(j) * n + static_cast<std::size_t>(i))]);
+        });
+        direct = std::max(direct, std::abs(255.0 * sampleMesoAlbedo<double>(*albedo, uv, 0.0).x - want));
+    }
+    INFO("largest difference from the image read 1.5 texels on: " << direct << " levels");
+    CHECK(direct < 1e-9);
     // The header read: its size; a missing file or one that is not a PNG, a FileError.
     CHECK((readPngSize((dir.path / "h.png").string()).width == n && readPngSize((dir.path / "h.png").string()).height == n));
     CHECK_THROWS_AS(readPngSize((dir.path / "missing.png").string()), FileError);

@@ -394,18 +394,23 @@ DM_TFUNC rvec4 dmMesoImageBilinear(DmMesoMaps m, int image, int level, rvec2 uv)
     return lo + (hi - lo) * f.y;
 }
 
-// Trilinear: the two levels around lod (clamped to the pyramid), mixed.
+// Trilinear: the two levels around lod (clamped to the pyramid), mixed, read at uv moved by
+// the image's shift (meso/albedo.h).
 DM_TFUNC rvec4 dmMesoImage(DmMesoMaps m, int image, rvec2 uv, real lod) {
     int levels = int(dmMesoFetchImage(m, image));
+    // The image's shift (level 0's texels), as a texture offset: every level reads the same point.
+    rvec2 shift = rvec2(real(uintBitsToFloat(dmMesoFetchImage(m, image + 1 + 4 * levels))),
+                        real(uintBitsToFloat(dmMesoFetchImage(m, image + 2 + 4 * levels))));
+    rvec2 at = uv + rvec2(shift.x / real(int(dmMesoFetchImage(m, image + 2))), shift.y / real(int(dmMesoFetchImage(m, image + 3))));
     real l = min(max(lod, real(0)), real(levels - 1));
     int l0 = int(floor(l));
     int l1 = min(l0 + 1, levels - 1);
     real f = l - real(l0);
-    rvec4 a = dmMesoImageBilinear(m, image, l0, uv);
+    rvec4 a = dmMesoImageBilinear(m, image, l0, at);
     if (l1 == l0 || f == real(0)) {
         return a;
     }
-    rvec4 b = dmMesoImageBilinear(m, image, l1, uv);
+    rvec4 b = dmMesoImageBilinear(m, image, l1, at);
     return a + (b - a) * f;
 }
 #undef real

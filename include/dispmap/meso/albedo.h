@@ -2,19 +2,24 @@
 // MesoAlbedo: an RGBA8 image over one tile: the colour of a mesostructure, or its normal map
 // (tangent space, normalMapFromHeights below; kern::dmNormalMapTangent reads a texel). It
 // repeats with the height field: at texture coordinate (s, t) in tiles, the image's texel
-// (s w, t h) with w x h its size, wrapping; texel (x, y) sits on the height field's sample
-// (x W / w, y H / h), so a colour image of the height image's size colours each height sample
-// with its own pixel. It has box-filtered mip levels for the footprint of a pixel (a normal
+// (s w + shift.x, t h + shift.y) with w x h its size, wrapping; texel (x, y) sits on the height
+// field's sample ((x - shift.x) W / w, (y - shift.y) H / h), so a colour image of the field's size
+// (shift 0) colours each height sample with its own pixel. The shift, in texels of level 0, is
+// applied where the image is read (kern::dmMesoImage), not by resampling the image: a scene
+// whose field averages blocks of its height image reads its colour images a fraction of a
+// texel on (detail::mesoImageShift, scene/meso.h), and resampling them once blurred them. It has box-filtered mip levels for the footprint of a pixel (a normal
 // map's levels average the encoded vectors, which the reader scales back to unit length).
 // Sampled by kern::dmMesoImage (kernels/meso_march.h) on the CPU (sampleMesoAlbedo) and in the
 // MesoRenderer's fragment shader, from one array of 32-bit words:
 //   word 0                  the level count n
 //   words 1 + 4 l .. +3     level l: offset of its first texel word, width, height, 0
+//   words 1 + 4 n, 2 + 4 n  the shift (x, y), float bits
 //   then the texels         level by level, rows from y = 0, x fastest; one RGBA8 texel a word,
 //                           red in the lowest byte (kern::dmUnpackRgba8)
 // Level l + 1 is the 2 x 2 box average of level l (rounded to nearest), floor(w / 2) x
 // floor(h / 2) texels (at least 1: an odd last row or column is dropped), down to 1 x 1.
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <string>
@@ -41,6 +46,11 @@ struct MesoAlbedo {
     int levels() const { return words.empty() ? 0 : static_cast<int>(words[0]); }
     int width(int level = 0) const { return static_cast<int>(words[static_cast<std::size_t>(2 + 4 * level)]); }
     int height(int level = 0) const { return static_cast<int>(words[static_cast<std::size_t>(3 + 4 * level)]); }
+    /// Where level 0 is read, in its texels, added to (s w, t h) (see the header).
+    glm::vec2 shift() const {
+        const std::size_t at = static_cast<std::size_t>(1 + 4 * levels());
+        return {std::bit_cast<float>(words[at]), std::bit_cast<float>(words[at + 1])};
+    }
     /// Texel (x, y) of a level (in range), packed.
     std::uint32_t texel(int level, int x, int y) const {
         return words[words[static_cast<std::size_t>(1 + 4 * level)] + static_cast<std::size_t>(y) * static_cast<std::size_t>(width(level)) +
@@ -50,12 +60,16 @@ struct MesoAlbedo {
 };
 
 /// The albedo of a width x height RGBA8 image (rows from the top of the image, which is t = 0:
-/// the rows of a height image, io/png.h), with `mips` levels below it or none. ArgumentError
-/// for a size outside 1..kMaxMesoAlbedoSize or too few bytes.
-inline MesoAlbedo mesoAlbedo(int width, int height, const std::vector<std::uint8_t>& rgba, bool mips = true) {
+/// the rows of a height image, io/png.h), with `mips` levels below it or none, read `shift`
+/// texels of it on (see the header). ArgumentError for a size outside 1..kMaxMesoAlbedoSize,
+/// too few bytes, or a shift that is not finite or beyond the image's size.
+inline MesoAlbedo mesoAlbedo(int width, int height, const std::vector<std::uint8_t>& rgba, bool mips = true, glm::vec2 shift = glm::vec2(0.0f)) {
     if (width < 1 || height < 1 || width > kMaxMesoAlbedoSize || height > kMaxMesoAlbedoSize)
         throw ArgumentError("mesostructure albedo: image size " + std::to_string(width) + " x " + std::to_string(height) +
                             " out of range (1 .. " + std::to_string(kMaxMesoAlbedoSize) + ")");
+    if (!(std::abs(shift.x) <= float(width)) || !(std::abs(shift.y) <= float(height)))
+        throw ArgumentError("mesostructure albedo: a shift of (" + std::to_string(shift.x) + ", " + std::to_string(shift.y) +
+                            ") texels is not finite or beyond the image's size");
     const std::size_t n = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
     if (rgba.size() < 4 * n)
         throw ArgumentError("mesostructure albedo: " + std::to_string(rgba.size()) + " bytes for " + std::to_string(width) + " x " +
@@ -63,11 +77,13 @@ inline MesoAlbedo mesoAlbedo(int width, int height, const std::vector<std::uint8
     std::vector<glm::ivec2> sizes{{width, height}};
     while (mips && (sizes.back().x > 1 || sizes.back().y > 1)) sizes.push_back(glm::max(sizes.back() / 2, glm::ivec2(1)));
     MesoAlbedo a;
-    std::size_t total = 1 + 4 * sizes.size();
+    std::size_t total = 3 + 4 * sizes.size();
     for (const glm::ivec2 s : sizes) total += static_cast<std::size_t>(s.x) * static_cast<std::size_t>(s.y);
     a.words.assign(total, 0u);
     a.words[0] = static_cast<std::uint32_t>(sizes.size());
-    std::size_t at = 1 + 4 * sizes.size();
+    a.words[1 + 4 * sizes.size()] = std::bit_cast<std::uint32_t>(shift.x + 0.0f); // + 0: no -0
+    a.words[2 + 4 * sizes.size()] = std::bit_cast<std::uint32_t>(shift.y + 0.0f);
+    std::size_t at = 3 + 4 * sizes.size();
     for (std::size_t l = 0; l < sizes.size(); ++l) {
         a.words[1 + 4 * l] = static_cast<std::uint32_t>(at);
         a.words[2 + 4 * l] = static_cast<std::uint32_t>(sizes[l].x);

@@ -686,36 +686,21 @@ inline glm::dvec2 mesoImageShift(const MesoSceneDesc& s, int width, int height) 
     return {0.5 * (width / W - 1.0), 0.5 * (height / H - 1.0)};
 }
 
-// `img` read `shift` texels on (bilinear, wrapping; the image repeats every tile).
-inline RgbaImage shiftRgbaImage(const RgbaImage& img, glm::dvec2 shift) {
-    if (shift == glm::dvec2(0.0)) return img;
-    RgbaImage out = img;
-    const auto w = static_cast<std::size_t>(img.width);
-    for (int y = 0; y < img.height; ++y)
-        for (int x = 0; x < img.width; ++x)
-            for (std::size_t c = 0; c < 4; ++c) {
-                const double v = bilinearWrapped(x + shift.x, y + shift.y, img.width, img.height, [&](int i, int j) {
-                    return double(img.rgba[4 * (static_cast<std::size_t>(j) * w + static_cast<std::size_t>(i)) + c]);
-                });
-                out.rgba[4 * (static_cast<std::size_t>(y) * w + static_cast<std::size_t>(x)) + c] =
-                    static_cast<std::uint8_t>(std::clamp(std::lround(v), 0L, 255L));
-            }
-    return out;
-}
 } // namespace detail
 
 /// The scene's albedo ("mesostructure.albedo", with its mips unless "effects.mips" is false),
 /// or none. Over a field made from a height image it is read so that each sample has the
 /// colour of the square it averages (detail::mesoImageShift: (fx - 1) / 2 texels on for an
-/// image of the height image's size filtered fx to 1, as a normal map made from the heights
-/// is: fieldAlignedHeightImage). FileError for an image that cannot be read, ArgumentError
-/// (naming the scene) for one larger than kMaxMesoAlbedoSize.
+/// image of the height image's size filtered fx to 1, as a normal map is), by the albedo's own
+/// shift where it is sampled (MesoAlbedo::shift: the image itself is not resampled).
+/// FileError for an image that cannot be read, ArgumentError (naming the scene) for one larger
+/// than kMaxMesoAlbedoSize.
 inline std::shared_ptr<const MesoAlbedo> buildMesoSceneAlbedo(const MesoSceneDesc& s) {
     if (s.albedoImage.empty()) return nullptr;
-    RgbaImage img = readRgbaPng(s.albedoImage, kMaxMesoAlbedoSize);
-    img = detail::shiftRgbaImage(img, detail::mesoImageShift(s, img.width, img.height));
+    const RgbaImage img = readRgbaPng(s.albedoImage, kMaxMesoAlbedoSize);
     try {
-        return std::make_shared<const MesoAlbedo>(mesoAlbedo(img.width, img.height, img.rgba, s.albedoMips));
+        return std::make_shared<const MesoAlbedo>(
+            mesoAlbedo(img.width, img.height, img.rgba, s.albedoMips, glm::vec2(detail::mesoImageShift(s, img.width, img.height))));
     } catch (const ArgumentError& e) {
         throw ArgumentError(s.name + ": '" + s.key + ".albedo': " + e.what());
     }
@@ -723,7 +708,8 @@ inline std::shared_ptr<const MesoAlbedo> buildMesoSceneAlbedo(const MesoSceneDes
 
 /// The scene's normal map ("mesostructure.normals", with its mips unless "effects.mips" is
 /// false), or none: the PNG, or with "height" normalMapFromHeights of the height image at its
-/// full resolution (the function's field at `size` without an image), the slope from white's
+/// full resolution (the function's field at `size` without an image), either read with the
+/// albedo's shift (buildMesoSceneAlbedo), the slope from white's
 /// depth (slab depth / layers) over a tile's width: `tile` on the plane, the base's
 /// meanTileWidth() when `base` (the scene's, buildMesoSceneBase) is given. FileError for an
 /// image that cannot be read, ArgumentError (naming the scene) for one larger than
@@ -731,16 +717,18 @@ inline std::shared_ptr<const MesoAlbedo> buildMesoSceneAlbedo(const MesoSceneDes
 inline std::shared_ptr<const MesoAlbedo> buildMesoSceneNormals(const MesoSceneDesc& s, const FrameMesh* base = nullptr) {
     try {
         if (!s.normalsImage.empty()) {
-            RgbaImage img = readRgbaPng(s.normalsImage, kMaxMesoAlbedoSize);
-            img = detail::shiftRgbaImage(img, detail::mesoImageShift(s, img.width, img.height)); // as the albedo
-            return std::make_shared<const MesoAlbedo>(mesoAlbedo(img.width, img.height, img.rgba, s.albedoMips));
+            const RgbaImage img = readRgbaPng(s.normalsImage, kMaxMesoAlbedoSize);
+            return std::make_shared<const MesoAlbedo>(
+                mesoAlbedo(img.width, img.height, img.rgba, s.albedoMips, glm::vec2(detail::mesoImageShift(s, img.width, img.height)))); // as the albedo
         }
         if (!s.normalsFromHeight) return nullptr;
         // Heights in voxels, the slope from voxels of height to tile widths.
         HeightImage heights;
         const double depth = s.depth > 0 ? s.depth : 0.875 * s.layers;
+        glm::vec2 shift(0.0f); // a height image's normal map is read as its albedo would be
         if (!s.heightImage.empty()) {
-            heights = fieldAlignedHeightImage(readHeightPng(s.heightImage, kMaxMesoAlbedoSize, " (the largest normal map made from heights)"), s.size);
+            heights = readHeightPng(s.heightImage, kMaxMesoAlbedoSize, " (the largest normal map made from heights)");
+            shift = glm::vec2(detail::mesoImageShift(s, heights.width, heights.height));
             for (float& v : heights.values) v = static_cast<float>(std::clamp(double(v), 0.0, 1.0) * depth);
         } else {
             const MesoHeightField f = mesoFunctionField(s.function, s.size, s.layers);
@@ -759,7 +747,7 @@ inline std::shared_ptr<const MesoAlbedo> buildMesoSceneNormals(const MesoSceneDe
         }
         if (!(tile > 0)) throw ArgumentError("the base has no tile width to take slopes over");
         const std::vector<std::uint8_t> rgba = normalMapFromHeights(heights, s.slab / (s.layers * tile));
-        return std::make_shared<const MesoAlbedo>(mesoAlbedo(heights.width, heights.height, rgba, s.albedoMips));
+        return std::make_shared<const MesoAlbedo>(mesoAlbedo(heights.width, heights.height, rgba, s.albedoMips, shift));
     } catch (const ArgumentError& e) {
         throw ArgumentError(s.name + ": '" + s.key + ".normals': " + e.what());
     }
