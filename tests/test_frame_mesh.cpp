@@ -345,13 +345,15 @@ struct BentWalk {
     double tNear = -1, tDeep = -1;
     bool leaves = false;
 };
+// How far P(t) lies below the bilinear surface (< 0: above it); the floor is solid.
+double bentBelow(const MesoHeightField& field, const glm::dvec3& o, const glm::dvec3& d, double bend, double t) {
+    const glm::dvec3 p = o + d * t - glm::dvec3(0.0, 0.0, bend * t * t);
+    glm::dvec2 f;
+    const glm::ivec2 c = kern::dmHeightCell(glm::dvec2(p.x, p.y), f);
+    return std::max(kern::dmBilerp(glm::dvec4(field.cell(c.x, c.y)), f), 0.0) - p.z;
+}
 BentWalk walkBentRay(const MesoHeightField& field, const glm::dvec3& o, const glm::dvec3& d, double bend, double near, double deep) {
-    const auto below = [&](double t) { // how far P(t) lies below the surface (< 0: above)
-        const glm::dvec3 p = o + d * t - glm::dvec3(0.0, 0.0, bend * t * t);
-        glm::dvec2 f;
-        const glm::ivec2 c = kern::dmHeightCell(glm::dvec2(p.x, p.y), f);
-        return std::max(kern::dmBilerp(glm::dvec4(field.cell(c.x, c.y)), f), 0.0) - p.z;
-    };
+    const auto below = [&](double t) { return bentBelow(field, o, d, bend, t); };
     BentWalk w;
     for (double t = 0.0; t < 4096.0; t += 1.0 / 64.0) {
         const double z = o.z + d.z * t - bend * t * t;
@@ -474,10 +476,11 @@ TEST_CASE("a bent ray's DDM march finds the parabola's first crossing of the hei
 
 TEST_CASE("relief mapping and POM along a bent ray find the parabola's first crossing of the height field", "[meso][frame][silhouette]") {
     // The same walk as the DDM's test above. Relief mapping and POM sample the parabola itself
-    // (no chords) in equal steps dt of its parameter (`linear` of them or, on a parabola longer
-    // than the straight ray to the floor, up to 4 linear: dt is at most tEnd / linear), so their
-    // bound is the linear search's: a crossing of the surface is found in the step where a sample first lies at or
-    // below it. Between two samples above it the parabola can dip below the surface by at most
+    // (no chords) in equal steps dt of its parameter, as many as make no step longer than the
+    // straight ray's (the straight ray to the floor over `linear`), at least `linear` and at most
+    // 4 linear (the rule of kern::dmMesoMarchHeightBent, computed here on its own), so their
+    // bound is the linear search's: a crossing of the surface is found in the step where a
+    // sample first lies at or below it. Between two samples above it the parabola can dip below the surface by at most
     // Lip dt / 2, Lip the rate at which "how far below" changes along it (the field's steepest
     // step times the horizontal speed, |d.z| + 2 |bend| t vertically). So the hit lies between
     // the walk's first point within Lip dt / 2 of the surface, less one step, and its first
@@ -502,8 +505,10 @@ TEST_CASE("relief mapping and POM along a bent ray find the parabola's first cro
                 const glm::dvec3 o(64.0 * u(g) - 16.0, 64.0 * u(g) - 16.0, L);
                 const double bend = k % 10 == 0 ? 0.0 : (k % 2 == 0 ? -1.0 : 1.0) * std::exp(-9.0 + 7.0 * u(g));
                 bool endsAtTop = false;
-                const double tEnd = kern::dmBentRayEnd(L, d, bend, endsAtTop), dt = tEnd / tq.linear;
-                longer += tEnd > -L / d.z * (1 + 1e-9) ? 1 : 0;
+                const double tEnd = kern::dmBentRayEnd(L, d, bend, endsAtTop), straightStep = (-L / d.z) / tq.linear;
+                const int steps = bend == 0 ? tq.linear : std::max(tq.linear, int(std::min(std::ceil(tEnd / straightStep), 4.0 * tq.linear)));
+                const double dt = (bend == 0 ? -L / d.z : tEnd) / steps;
+                longer += steps > tq.linear ? 1 : 0;
                 const double lip = steep + std::abs(d.z) + 2.0 * std::abs(bend) * (tEnd + dt);
                 const double slack = 0.5 * lip * dt;
                 const BentWalk w = walkBentRay(field, o, d, bend, slack + walkSlack, slack);
@@ -513,13 +518,13 @@ TEST_CASE("relief mapping and POM along a bent ray find the parabola's first cro
                               << h.t << " n " << h.iterations << " near " << w.tNear << " deep " << w.tDeep << " dt " << dt);
                 bentUp += endsAtTop ? 1 : 0;
                 straight += bend == 0 ? 1 : 0;
-                // Samples: at most 4 linear (+1 for POM's first), + binary for relief; linear where the
-                // parabola is no longer than the straight ray to the floor.
-                const int extra = 1 + (method == MesoMethod::Relief ? tq.binary : 0);
-                CHECK(h.iterations <= 4 * tq.linear + extra);
-                if (tEnd <= -L / d.z) CHECK(h.iterations <= tq.linear + extra);
+                // Samples: at most `steps` (+1 for POM's first) + binary for relief; a ray that
+                // misses took every step, and nothing else.
+                const int first = method == MesoMethod::Pom ? 1 : 0;
+                CHECK(h.iterations <= steps + first + (method == MesoMethod::Relief ? tq.binary : 0));
                 if (w.tNear < 0) {
                     CHECK_FALSE(h.hit);
+                    CHECK(h.iterations == steps + first);
                     ++misses;
                     continue;
                 }
@@ -539,6 +544,29 @@ TEST_CASE("relief mapping and POM along a bent ray find the parabola's first cro
             CHECK(misses > 30);
             CHECK(bentUp > 100);
         }
+        // Relief mapping's bisections run on the parabola too: with 8 coarse steps and 24
+        // bisections the hit's bracket is dt / 2^24 wide, and the parabola's point there lies on
+        // the surface to Lip times that (a sign change of "how far below", which is continuous).
+        MesoTechnique fine;
+        fine.method = MesoMethod::Relief;
+        fine.linear = 8;
+        fine.binary = 24;
+        int onSurface = 0;
+        for (int k = 0; k < 500; ++k) {
+            const double elev = 0.1 + 1.3 * u(g), az = 6.283185307179586 * u(g);
+            const glm::dvec3 d(std::cos(elev) * std::cos(az), std::cos(elev) * std::sin(az), -std::sin(elev));
+            const glm::dvec3 o(64.0 * u(g) - 16.0, 64.0 * u(g) - 16.0, L);
+            const double bend = (k % 2 == 0 ? -1.0 : 1.0) * std::exp(-7.0 + 5.0 * u(g));
+            bool endsAtTop = false;
+            const double tEnd = kern::dmBentRayEnd(L, d, bend, endsAtTop);
+            const MesoHit h = marchMesoBent<double>(maps, fine, o, d, bend);
+            if (!h.hit) continue;
+            const double lip = steep + std::abs(d.z) + 2.0 * std::abs(bend) * 2.0 * tEnd;
+            INFO(function << " fine k " << k << " bend " << bend << " t " << h.t << " below " << bentBelow(field, o, d, bend, h.t));
+            CHECK(std::abs(bentBelow(field, o, d, bend, h.t)) <= lip * (tEnd / fine.linear) / 16777216.0 + 1e-9);
+            ++onSurface;
+        }
+        CHECK(onSurface > 300);
     }
     // A bend of 0 is the straight march, bit for bit, at both precisions; POM and relief differ.
     const MesoMaps maps = buildMesoMaps(mesoFunctionField("waves", 32, 16), mesoMapOptionsFor(MesoTechnique{MesoMethod::Pom}, false));
@@ -555,7 +583,7 @@ TEST_CASE("relief mapping and POM along a bent ray find the parabola's first cro
         CHECK_THROWS_WITH(marchMesoBent<float>(maps, tq, o, -d, 0.01), Contains("view rays go down"));
         CHECK_THROWS_WITH(marchMesoBent<float>(maps, tq, o, d, std::numeric_limits<double>::infinity()), Contains("finite bend"));
         tq.linear = 0;
-        CHECK_THROWS_WITH(marchMesoBent<float>(maps, tq, o, d, 0.01), Contains("at least one linear step"));
+        CHECK_THROWS_WITH(marchMesoBent<float>(maps, tq, o, d, 0.01), Contains("0 linear steps, not in [1, 1024]"));
     }
 }
 

@@ -108,6 +108,22 @@ TEST_CASE("bad albedos are clear errors", "[meso][albedo][inputs]") {
     CHECK_THROWS_WITH(sampleMesoAlbedo<float>(MesoAlbedo{}, {0, 0}, 0), Contains("the albedo is empty"));
     const MesoAlbedo a = mesoAlbedo(2, 2, pattern(2, 2));
     CHECK_THROWS_WITH(sampleMesoAlbedo<float>(a, {std::nan(""), 0}, 0), Contains("not finite"));
+    // Words that do not hold an image are refused before they are read: the layout before the
+    // shift words (its texels where the shift now is), a shift that is not finite, a level
+    // beyond the words.
+    CHECK(mesoAlbedoProblem(a).empty());
+    MesoAlbedo old;
+    old.words = {1u, 5u, 2u, 2u, 0u, 0xff0000ffu, 0xff00ff00u, 0xffff0000u, 0xffffffffu};
+    CHECK_THROWS_WITH(sampleMesoAlbedo<float>(old, {0, 0}, 0), Contains("texels do not lie within its words after the header"));
+    MesoAlbedo nanShift = a;
+    nanShift.words[static_cast<std::size_t>(1 + 4 * a.levels())] = 0x7fc00000u;
+    CHECK_THROWS_WITH(sampleMesoAlbedo<double>(nanShift, {0, 0}, 0), Contains("shift is not finite"));
+    MesoAlbedo cut = a;
+    cut.words.resize(cut.words.size() - 1);
+    CHECK_THROWS_WITH(sampleMesoAlbedo<double>(cut, {0, 0}, 0), Contains("do not lie within its words"));
+    MesoAlbedo many = a;
+    many.words[0] = 40;
+    CHECK_THROWS_WITH(sampleMesoAlbedo<double>(many, {0, 0}, 0), Contains("level count 40 is not in 1 .. 32"));
 }
 
 TEST_CASE("a mesostructure scene's albedo", "[meso][albedo][scene]") {

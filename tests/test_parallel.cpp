@@ -283,27 +283,59 @@ TEST_CASE("tessellation into a used mesh: the same mesh bit for bit, in the same
     CHECK(sameMesh(used, grown));
     // Every element is written: a MeshArray's resize() leaves new elements as the memory held
     // them (core/triangle_mesh.h), so arrays emptied over poison (NaN, -1) show any element a
-    // tessellation leaves unwritten, for the same counts and for smaller ones.
-    for (const Tessellator* t : {&large, &small}) {
-        TriangleMesh poisoned;
+    // tessellation leaves unwritten: at the counts above, and on a mesh with holes, N-gons and
+    // T-junctions at factors that vary from vertex to vertex, with Integer spacing and factor
+    // 1 (tiles of two triangles, no grid).
+    const auto poisonedIsFresh = [](const Tessellator& t) {
+        const TriangleMesh made = t.tessellate();
         const double nan = std::numeric_limits<double>::quiet_NaN();
+        TriangleMesh poisoned;
         auto poison = [](auto& v, std::size_t n, const auto& value) {
             v.assign(n, value);
             v.clear();
         };
-        poison(poisoned.positions, largeVertices, glm::dvec3(nan));
-        poison(poisoned.normals, largeVertices, glm::dvec3(nan));
-        poison(poisoned.faces, largeVertices, -1);
-        poison(poisoned.uvs, largeVertices, glm::dvec2(nan));
-        poison(poisoned.resolutions, largeVertices, nan);
-        poison(poisoned.triangles, largeTriangles, glm::ivec3(-1));
-        poison(poisoned.triangleFaces, largeTriangles, -1);
-        poison(poisoned.triangleUVs, largeTriangles, std::array<glm::dvec2, 3>{glm::dvec2(nan), glm::dvec2(nan), glm::dvec2(nan)});
+        const std::size_t nv = made.positions.size() + 7, nt = made.triangles.size() + 7;
+        poison(poisoned.positions, nv, glm::dvec3(nan));
+        poison(poisoned.normals, nv, glm::dvec3(nan));
+        poison(poisoned.faces, nv, -1);
+        poison(poisoned.uvs, nv, glm::dvec2(nan));
+        poison(poisoned.resolutions, nv, nan);
+        poison(poisoned.triangles, nt, glm::ivec3(-1));
+        poison(poisoned.triangleFaces, nt, -1);
+        poison(poisoned.triangleUVs, nt, std::array<glm::dvec2, 3>{glm::dvec2(nan), glm::dvec2(nan), glm::dvec2(nan)});
         const glm::dvec3* held = poisoned.positions.data();
-        t->tessellate(poisoned);
-        CHECK(poisoned.positions.data() == held); // the poisoned memory was the one used
-        CHECK(sameMesh(t == &large ? used : fresh, poisoned));
+        t.tessellate(poisoned);
+        return poisoned.positions.data() == held && sameMesh(made, poisoned); // the poisoned memory was the one used
+    };
+    CHECK(poisonedIsFresh(large));
+    CHECK(poisonedIsFresh(small));
+    {
+        const ControlMesh holes = dmtest::shape("catmark_hole_test1");
+        const BaseSurface holeBase(holes);
+        const TileSet holeTiles = buildTiles(holes, uniformTileSizes(holes, 3), dmtest::roughSource);
+        const DisplacedSurface holeSurface(holeBase, holeTiles);
+        std::mt19937 g(9);
+        std::uniform_real_distribution<double> f(1.0, 9.0);
+        TessFactors varied = uniformTessFactors(holeBase, 1.0);
+        for (double& v : varied.values) v = f(g);
+        for (const Spacing spacing : {Spacing::Integer, Spacing::FractionalEven}) {
+            TessellateOptions p = o;
+            p.spacing = spacing;
+            INFO("spacing " << static_cast<int>(spacing));
+            CHECK(poisonedIsFresh(Tessellator(holeSurface, varied, p)));
+            CHECK(poisonedIsFresh(Tessellator(holeSurface, uniformTessFactors(holeBase, 1.0), p)));
+        }
+        TessFactors nonquads = uniformTessFactors(base, 1.0); // N-gons, T-junctions
+        for (double& v : nonquads.values) v = f(g);
+        CHECK(poisonedIsFresh(Tessellator(surface, nonquads, o)));
     }
+    // And the allocator does not zero: a MeshArray of bytes emptied over a pattern and grown
+    // again within its capacity still holds the pattern (std::vector's resize would write 0).
+    MeshArray<unsigned char> bytes;
+    bytes.assign(4096, static_cast<unsigned char>(0xA5));
+    bytes.clear();
+    bytes.resize(4096);
+    CHECK(std::count(bytes.begin(), bytes.end(), static_cast<unsigned char>(0xA5)) == 4096);
     // The huge-page hint changes where the memory comes from, never the mesh.
     TessellateOptions plain = o;
     plain.hugePages = false;

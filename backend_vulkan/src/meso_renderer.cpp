@@ -100,8 +100,8 @@ void validateLook(const Context& ctx, const MesoMaps& maps, const MesoLook& o, c
     const MesoTechnique& t = o.technique;
     if ((t.method == MesoMethod::DistanceMap || t.method == MesoMethod::Ddm) && t.iterations < 1)
         throw ArgumentError("meso renderer: the technique needs at least one iteration (" + std::to_string(t.iterations) + ")");
-    if ((t.method == MesoMethod::Relief || t.method == MesoMethod::Pom) && t.linear < 1)
-        throw ArgumentError("meso renderer: relief mapping / POM need at least one linear step");
+    if ((t.method == MesoMethod::Relief || t.method == MesoMethod::Pom) && (t.linear < 1 || t.linear > kMaxMesoLinearSteps))
+        throw ArgumentError("meso renderer: relief mapping / POM need 1 to " + std::to_string(kMaxMesoLinearSteps) + " linear steps");
     if (t.method == MesoMethod::Relief && t.binary < 0) throw ArgumentError("meso renderer: relief mapping needs binary >= 0");
     if (t.method == MesoMethod::Ddm && (t.exitRule < 0 || t.exitRule > 1)) throw ArgumentError("meso renderer: exit rule must be 0 or 1");
     if (!std::isfinite(t.eps)) throw ArgumentError("meso renderer: eps must be finite");
@@ -132,15 +132,8 @@ void validateLook(const Context& ctx, const MesoMaps& maps, const MesoLook& o, c
         }
     const auto checkImage = [](const std::shared_ptr<const MesoAlbedo>& image, const char* what) {
         if (!image) return;
-        const std::vector<std::uint32_t>& w = image->words;
-        const std::size_t levels = w.empty() ? 0 : w[0];
-        bool ok = levels >= 1 && levels <= 32 && w.size() >= 1 + 4 * levels;
-        for (std::size_t l = 0; ok && l < levels; ++l) {
-            const std::uint64_t width = w[2 + 4 * l], height = w[3 + 4 * l];
-            ok = width >= 1 && height >= 1 && width <= kMaxMesoAlbedoSize && height <= kMaxMesoAlbedoSize &&
-                 std::uint64_t{w[1 + 4 * l]} + width * height <= w.size();
-        }
-        if (!ok) throw ArgumentError(std::string("meso renderer: the ") + what + "'s words do not hold its levels (build it with mesoAlbedo)");
+        if (const std::string why = mesoAlbedoProblem(*image); !why.empty())
+            throw ArgumentError(std::string("meso renderer: the ") + what + "'s words do not hold its levels (build it with mesoAlbedo): " + why);
     };
     checkImage(o.albedo, "albedo");
     checkImage(o.normalMap, "normal map");

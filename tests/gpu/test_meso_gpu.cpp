@@ -236,7 +236,9 @@ TEST_CASE("the mesostructure renderer rejects bad input with clear errors", "[me
     CHECK_THROWS_WITH(dispmap::vulkan::MesoRenderer(ctx, shadowMaps(), o), Catch::Contains("above the plane"));
     o = smallScene(MesoMethod::Relief);
     o.technique.linear = 0;
-    CHECK_THROWS_WITH(dispmap::vulkan::MesoRenderer(ctx, shadowMaps(), o), Catch::Contains("linear step"));
+    CHECK_THROWS_WITH(dispmap::vulkan::MesoRenderer(ctx, shadowMaps(), o), Catch::Contains("1 to 1024 linear steps"));
+    o.technique.linear = dispmap::kMaxMesoLinearSteps + 1; // a bent ray takes up to 4 times as many
+    CHECK_THROWS_WITH(dispmap::vulkan::MesoRenderer(ctx, shadowMaps(), o), Catch::Contains("1 to 1024 linear steps"));
     o = smallScene(MesoMethod::Ddm);
     o.frames = 0;
     CHECK_THROWS_AS(dispmap::vulkan::MesoRenderer(ctx, shadowMaps(), o), dispmap::ArgumentError);
@@ -411,7 +413,7 @@ TEST_CASE("bad base meshes are refused before anything is drawn", "[meso]") {
 
 // --- The albedo (meso/albedo.h) -------------------------------------------------------------
 namespace {
-std::shared_ptr<const dispmap::MesoAlbedo> albedoOf(int w, int h, bool mips, bool checker) {
+std::shared_ptr<const dispmap::MesoAlbedo> albedoOf(int w, int h, bool mips, bool checker, glm::vec2 shift = glm::vec2(0.0f)) {
     std::vector<std::uint8_t> px(4 * static_cast<std::size_t>(w) * static_cast<std::size_t>(h));
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x) {
@@ -422,19 +424,21 @@ std::shared_ptr<const dispmap::MesoAlbedo> albedoOf(int w, int h, bool mips, boo
             px[i + 2] = checker ? px[i] : static_cast<std::uint8_t>(90 + 13 * x);
             px[i + 3] = 255;
         }
-    return std::make_shared<const dispmap::MesoAlbedo>(dispmap::mesoAlbedo(w, h, px, mips));
+    return std::make_shared<const dispmap::MesoAlbedo>(dispmap::mesoAlbedo(w, h, px, mips, shift));
 }
 } // namespace
 
 TEST_CASE("the albedo is the CPU's at every hit; its mips remove the aliasing", "[meso]") {
     auto& ctx = dmgpu::context();
     const bool strict = dmgpu::strict();
-    for (const bool curved : {false, true}) {
+    for (const bool curved : {false, true})
+    for (const glm::vec2 shift : {glm::vec2(0.0f), glm::vec2(1.5f, -0.75f)}) {
         // Unlit (ambient 1: the shade factor is exactly 1), one level: the colour is the
-        // bilinear albedo at the hit, as the CPU samples it, to the 8-bit target's rounding.
+        // bilinear albedo at the hit, as the CPU samples it, to the 8-bit target's rounding;
+        // read where the image's shift says (MesoAlbedo::shift) on both.
         MesoRenderOptions o = curved ? spotScene(MesoMethod::Ddm) : smallScene(MesoMethod::Ddm);
         o.ambient = 1.0;
-        o.albedo = albedoOf(7, 5, false, false);
+        o.albedo = albedoOf(7, 5, false, false, shift);
         const MesoImage img = dispmap::vulkan::renderMeso(ctx, shadowMaps(), o);
         std::size_t hits = 0, close = 0;
         for (std::size_t i = 0; i < img.hit.size(); ++i) {
@@ -445,7 +449,8 @@ TEST_CASE("the albedo is the CPU's at every hit; its mips remove the aliasing", 
             for (int c = 0; c < 3; ++c) worst = std::max(worst, std::abs(double(img.rgba[4 * i + static_cast<std::size_t>(c)]) - 255.0 * double(cpu[c])));
             close += worst <= unormTolerance(strict) ? 1u : 0u;
         }
-        INFO((curved ? "Spot" : "plane") << ": " << close << " of " << hits << " hit pixels within " << unormTolerance(strict) << " of the CPU's colour");
+        INFO((curved ? "Spot" : "plane") << ", shift (" << shift.x << ", " << shift.y << "): " << close << " of " << hits << " hit pixels within "
+                                          << unormTolerance(strict) << " of the CPU's colour");
         REQUIRE(hits > 500);
         if (strict) CHECK(close == hits);
         CHECK(double(close) >= 0.99 * double(hits));
@@ -536,6 +541,10 @@ TEST_CASE("the normal map shades every hit as the CPU reads it, on the plane and
     broken->words.resize(20);
     o.normalMap = broken;
     CHECK_THROWS_WITH(dispmap::vulkan::MesoRenderer(ctx, shadowMaps(), o), Catch::Contains("the normal map's words do not hold its levels"));
+    auto nanShift = std::make_shared<dispmap::MesoAlbedo>(*map);
+    nanShift->words[static_cast<std::size_t>(1 + 4 * map->levels())] = 0x7fc00000u; // a NaN shift
+    o.normalMap = nanShift;
+    CHECK_THROWS_WITH(dispmap::vulkan::MesoRenderer(ctx, shadowMaps(), o), Catch::Contains("its shift is not finite"));
     o.normalMap = map;
     o.normalScale = std::nan("");
     CHECK_THROWS_WITH(dispmap::vulkan::MesoRenderer(ctx, shadowMaps(), o), Catch::Contains("the normal map's scale must be finite"));

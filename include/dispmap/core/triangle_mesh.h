@@ -17,9 +17,9 @@ namespace dispmap {
 /// doubles) leaves the new elements unwritten instead of zeroing them. The tessellator sizes its
 /// arrays and then writes every element once; with std::vector's zeroing a new mesh's 64 bytes a
 /// triangle and 76 a vertex were written twice (about a sixth of a large tessellation's time
-/// on one core: docs/figures.md, "Embree side by side"). Anything else that grows a mesh array with
-/// resize(n) must write the new elements itself; resize(n, value), push_back and assign behave
-/// as for std::vector.
+/// on one core: docs/figures.md, "Embree side by side"). Anything else that makes elements
+/// without a value (resize(n), emplace_back(), the constructor MeshArray(n)) must write them
+/// itself; resize(n, value), push_back, insert and assign behave as for std::vector.
 template <class T> struct DefaultInitAllocator : std::allocator<T> {
     using value_type = T;
     template <class U> struct rebind {

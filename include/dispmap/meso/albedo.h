@@ -59,6 +59,28 @@ struct MesoAlbedo {
     std::size_t bytes() const { return 4 * words.size(); }
 };
 
+/// Why `a`'s words do not hold an image as mesoAlbedo lays them out (the reason), or "": 1 to 32
+/// levels of 1 .. kMaxMesoAlbedoSize texels a side, each level's texels after the header and
+/// within the words, a finite shift within the image's size. What kern::dmMesoImage reads
+/// without checking; sampleMesoAlbedo and the renderer ask first.
+inline std::string mesoAlbedoProblem(const MesoAlbedo& a) {
+    const std::vector<std::uint32_t>& w = a.words;
+    const std::size_t levels = w.empty() ? 0 : w[0];
+    if (levels < 1 || levels > 32) return "its level count " + std::to_string(levels) + " is not in 1 .. 32";
+    const std::size_t header = 3 + 4 * levels;
+    if (w.size() < header) return "its " + std::to_string(w.size()) + " words do not hold the header of " + std::to_string(levels) + " levels";
+    for (std::size_t l = 0; l < levels; ++l) {
+        const std::uint64_t width = w[2 + 4 * l], height = w[3 + 4 * l], first = w[1 + 4 * l];
+        if (width < 1 || height < 1 || width > kMaxMesoAlbedoSize || height > kMaxMesoAlbedoSize)
+            return "level " + std::to_string(l) + " is " + std::to_string(width) + " x " + std::to_string(height) + " texels";
+        if (first < header || first + width * height > w.size())
+            return "level " + std::to_string(l) + "'s texels do not lie within its words after the header";
+    }
+    const glm::vec2 s = a.shift();
+    if (!(std::abs(s.x) <= float(w[2])) || !(std::abs(s.y) <= float(w[3]))) return "its shift is not finite or beyond its size";
+    return "";
+}
+
 /// The albedo of a width x height RGBA8 image (rows from the top of the image, which is t = 0:
 /// the rows of a height image, io/png.h), with `mips` levels below it or none, read `shift`
 /// texels of it on (see the header). ArgumentError for a size outside 1..kMaxMesoAlbedoSize,

@@ -91,9 +91,11 @@ namespace dispmap {
 
 /// The image (an albedo or a normal map) at texture coordinate uv (tiles) and mip level lod
 /// (kern::dmMesoImage, as the renderer's fragment shader samples it), RGBA in [0, 1].
-/// ArgumentError for an empty image or a coordinate or level that is not finite.
+/// ArgumentError for an empty image, words that do not hold one (mesoAlbedoProblem), or a
+/// coordinate or level that is not finite.
 template <class real> glm::vec<4, real> sampleMesoAlbedo(const MesoAlbedo& a, const glm::dvec2& uv, double lod) {
-    if (a.levels() < 1) throw ArgumentError("sampleMesoAlbedo: the albedo is empty");
+    if (a.words.empty()) throw ArgumentError("sampleMesoAlbedo: the albedo is empty");
+    if (const std::string why = mesoAlbedoProblem(a); !why.empty()) throw ArgumentError("sampleMesoAlbedo: the image's words are not an image: " + why);
     if (!std::isfinite(uv.x + uv.y + lod)) throw ArgumentError("sampleMesoAlbedo: texture coordinate or level not finite");
     kern::DmMesoMapsT<real> m;
     m.image = &a;
@@ -250,6 +252,10 @@ struct CompressedDdmView {
     template <class real> void bind(kern::DmMesoMapsT<real>& maps) const { maps.compressed = m; }
 };
 
+/// Most linear steps of relief mapping and POM (4 per voxel layer at the most layers, 256): the
+/// renderer and the CPU marchers refuse more (a bent ray takes up to 4 times as many).
+inline constexpr int kMaxMesoLinearSteps = 1024;
+
 /// Relief mapping (Policarpo et al. 2005): `linear` equal steps from the top to the bottom
 /// plane until a sample is at or below the surface, then `binary` bisections; the hit is the
 /// final bracket's midpoint. View rays only (d.z < 0).
@@ -258,7 +264,8 @@ struct CompressedDdmView {
 template <class real> MesoHit marchHeightSearch(const MesoHeightField& hf, const glm::dvec3& o0, const glm::dvec3& d0, int linear, int binary) {
     detail::checkRay(o0, d0, "marchHeightSearch");
     if (!(d0.z < 0)) throw ArgumentError("relief mapping / POM: view rays go down (d.z < 0)");
-    if (linear < 1) throw ArgumentError("relief mapping / POM: at least one linear step");
+    if (linear < 1 || linear > kMaxMesoLinearSteps)
+        throw ArgumentError("relief mapping / POM: " + std::to_string(linear) + " linear steps, not in [1, " + std::to_string(kMaxMesoLinearSteps) + "]");
     kern::DmMesoMapsT<real> maps;
     maps.layers = hf.layers;
     maps.field = &hf;
@@ -280,7 +287,8 @@ MesoHit marchHeightSearchBent(const MesoHeightField& hf, const glm::dvec3& o0, c
                               glm::dvec3* slabPoint = nullptr) {
     detail::checkRay(o0, d0, "marchHeightSearchBent");
     if (!(d0.z < 0)) throw ArgumentError("relief mapping / POM: view rays go down (d.z < 0)");
-    if (linear < 1) throw ArgumentError("relief mapping / POM: at least one linear step");
+    if (linear < 1 || linear > kMaxMesoLinearSteps)
+        throw ArgumentError("relief mapping / POM: " + std::to_string(linear) + " linear steps, not in [1, " + std::to_string(kMaxMesoLinearSteps) + "]");
     if (!(o0.z == hf.layers) || !std::isfinite(bend))
         throw ArgumentError("marchHeightSearchBent: the ray must enter at the top (z = layers), with a finite bend");
     kern::DmMesoMapsT<real> maps;

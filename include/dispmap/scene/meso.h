@@ -128,11 +128,10 @@ inline constexpr std::size_t kMaxMesoParts = 16;
 
 /// Largest step counts of a mesostructure scene's marchers ("effects"): the iteration cap of
 /// the distance map and DDM marchers (4 times the 1024 of the table's DDM rows), relief / POM
-/// linear steps (4 per voxel layer at the most layers, 256), and bisections (float has a
-/// 24-bit mantissa: more halve nothing). Every pixel may run them all on the GPU: a typo
-/// (1e9) would hang it.
+/// linear steps (kMaxMesoLinearSteps, meso/march.h), and bisections (float has a 24-bit
+/// mantissa: more halve nothing). Every pixel may run them all on the GPU: a typo (1e9) would
+/// hang it.
 inline constexpr int kMaxMesoIterations = 4096;
-inline constexpr int kMaxMesoLinearSteps = 1024;
 inline constexpr int kMaxMesoBinarySteps = 32;
 /// Largest memory the maps of one mesostructure may take while they are built
 /// (mesoBuildBytes): the dense DDM (4 bytes per voxel and cone) is built whole before it is
