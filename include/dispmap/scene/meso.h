@@ -281,11 +281,13 @@ template <class At> double bilinearWrapped(double px, double py, int w, int h, c
 }
 } // namespace detail
 
-/// The height image as the normal map of a scene's "normals": "height" sees it: all of it,
-/// resampled bilinearly (wrapping) (fx - 1) / 2 and (fy - 1) / 2 texels on (fx = width / size,
-/// fy = height / size, not necessarily whole), so that the point fx i, fy j, which sits on the
+/// The height image lined up with the field made from it at `size`: all of it, resampled
+/// bilinearly (wrapping) (fx - 1) / 2 and (fy - 1) / 2 texels on (fx = width / size, fy =
+/// height / size, not necessarily whole), so that the point fx i, fy j, which sits on the
 /// field's sample (i, j), holds the centre of the square the sample averages
-/// (downsampleHeightImage). The image itself when size is 0 or its width.
+/// (downsampleHeightImage). The image itself when size is 0 or its width. For a tool that
+/// wants the aligned heights themselves; a scene's images are not resampled but read with
+/// that shift (MesoAlbedo::shift), which keeps their sharpness.
 inline HeightImage fieldAlignedHeightImage(const HeightImage& img, int size) {
     if (size == 0 || size == img.width) return img;
     const int w = img.width, h = img.height;
