@@ -41,6 +41,16 @@ bool sameTiles(const TileSet& a, const TileSet& b) {
     return true;
 }
 
+// A test shape with rough tiles of 2^k a side and its displaced surface.
+struct RoughSurface {
+    ControlMesh mesh;
+    BaseSurface base;
+    TileSet tiles;
+    DisplacedSurface surface;
+    RoughSurface(const char* name, int k)
+        : mesh(dmtest::shape(name)), base(mesh), tiles(buildTiles(mesh, uniformTileSizes(mesh, k), dmtest::roughSource)), surface(base, tiles) {}
+};
+
 bool sameMesh(const TriangleMesh& a, const TriangleMesh& b) {
     return sameBits(a.positions, b.positions) && sameBits(a.normals, b.normals) && a.faces == b.faces && sameBits(a.uvs, b.uvs) &&
            sameBits(a.resolutions, b.resolutions) && a.triangles == b.triangles && a.triangleFaces == b.triangleFaces &&
@@ -191,10 +201,9 @@ TEST_CASE("parallel: auto normals are analysed only when asked for, the same on 
 }
 
 TEST_CASE("parallel: evaluateBatch is evaluate() point for point, face by face, on any count", "[parallel][normals]") {
-    const ControlMesh mesh = dmtest::shape("catmark_hole_test1");
-    const BaseSurface base(mesh);
-    const TileSet tiles = buildTiles(mesh, uniformTileSizes(mesh, 3), dmtest::roughSource);
-    const DisplacedSurface surface(base, tiles);
+    const RoughSurface rough("catmark_hole_test1", 3);
+    const BaseSurface& base = rough.base;
+    const DisplacedSurface& surface = rough.surface;
     std::mt19937 rng(5);
     std::uniform_real_distribution<double> uv(0, 1);
     std::vector<SurfacePoint<double>> points;
@@ -233,10 +242,9 @@ TEST_CASE("parallel: evaluateBatch is evaluate() point for point, face by face, 
 TEST_CASE("parallel: tessellations are bit-identical for 1, 2 and 3 threads", "[parallel][tessellate]") {
     for (const char* name : {"catmark_nonquads", "catmark_bishop", "catmark_dart_edgecorner"}) {
         INFO(name);
-        const ControlMesh mesh = dmtest::shape(name);
-        const BaseSurface base(mesh);
-        const TileSet tiles = buildTiles(mesh, uniformTileSizes(mesh, 4), dmtest::roughSource);
-        const DisplacedSurface surface(base, tiles);
+        const RoughSurface rough(name, 4);
+        const BaseSurface& base = rough.base;
+        const DisplacedSurface& surface = rough.surface;
         TessellateOptions o;
         o.normals = NormalMode::Auto;
         o.mips = MipSelection::TessFactor;
@@ -252,10 +260,9 @@ TEST_CASE("parallel: tessellations are bit-identical for 1, 2 and 3 threads", "[
 }
 
 TEST_CASE("tessellation into a used mesh: the same mesh bit for bit, in the same memory", "[parallel][tessellate]") {
-    const ControlMesh mesh = dmtest::shape("catmark_nonquads");
-    const BaseSurface base(mesh);
-    const TileSet tiles = buildTiles(mesh, uniformTileSizes(mesh, 4), dmtest::roughSource);
-    const DisplacedSurface surface(base, tiles);
+    const RoughSurface rough("catmark_nonquads", 4);
+    const BaseSurface& base = rough.base;
+    const DisplacedSurface& surface = rough.surface;
     TessellateOptions o;
     o.mips = MipSelection::TexelRatio;
     const Tessellator small(surface, uniformTessFactors(base, 5.7), o), large(surface, uniformTessFactors(base, 23.0), o);
@@ -310,10 +317,9 @@ TEST_CASE("tessellation into a used mesh: the same mesh bit for bit, in the same
     CHECK(poisonedIsFresh(large));
     CHECK(poisonedIsFresh(small));
     {
-        const ControlMesh holes = dmtest::shape("catmark_hole_test1");
-        const BaseSurface holeBase(holes);
-        const TileSet holeTiles = buildTiles(holes, uniformTileSizes(holes, 3), dmtest::roughSource);
-        const DisplacedSurface holeSurface(holeBase, holeTiles);
+        const RoughSurface holes("catmark_hole_test1", 3);
+        const BaseSurface& holeBase = holes.base;
+        const DisplacedSurface& holeSurface = holes.surface;
         std::mt19937 g(9);
         std::uniform_real_distribution<double> f(1.0, 9.0);
         TessFactors varied = uniformTessFactors(holeBase, 1.0);

@@ -245,76 +245,20 @@ DM_TFUNC real dmMesoAboveAt(DmMesoMaps m, rvec3 p, DM_INOUT(int) count) {
     return dmHeightAbove(p, rvec4(dmMesoFetchCell(m, c.x, c.y)), f);
 }
 
-// Height of the point at t on the ray o + t d above the height field.
-DM_TFUNC real dmMesoAbove(DmMesoMaps m, rvec3 o, rvec3 d, real t, DM_INOUT(int) count) {
-    return dmMesoAboveAt(m, o + d * t, count);
-}
-
-// Relief mapping (Policarpo et al. 2005): `linear` equal steps from the top to the bottom
-// plane until a sample is at or below the surface, then `binary` bisections; the hit is the
-// final bracket's midpoint. Parallax occlusion mapping (Tatarchuk 2006) with binary < 0: the
-// same linear search, then the crossing of the segment between the last two samples. View
-// rays only (d.z < 0) and linear >= 1: the caller checks.
-DM_TFUNC bool dmMesoMarchHeight(DmMesoMaps m, rvec3 o, rvec3 d, int linear, int binary, DM_OUT(real) tHit,
-                                DM_OUT(int) count) {
-    count = 0;
-    real tEnd = dmPlaneHit(o, d, real(0));
-    real dt = tEnd / real(linear);
-    rvec2 bracket = rvec2(real(0), dt);
-    real abovePrev = real(0);
-    if (binary < 0) {
-        abovePrev = dmMesoAbove(m, o, d, real(0), count);
-    }
-    real aboveCur = real(0);
-    for (int i = 0; i < linear; ++i) {
-        aboveCur = dmMesoAbove(m, o, d, bracket.y, count);
-        real keep = aboveCur;
-        if (dmLinearSearchStep(bracket, dt, aboveCur)) {
-            break;
-        }
-        abovePrev = keep;
-    }
-    if (binary < 0) {
-        tHit = dmPomIntersect(bracket, abovePrev, aboveCur);
-        return true;
-    }
-    for (int j = 0; j < binary; ++j) {
-        bracket = dmBisectStep(bracket, dmMesoAbove(m, o, d, real(0.5) * (bracket.x + bracket.y), count));
-    }
-    tHit = real(0.5) * (bracket.x + bracket.y);
-    return true;
-}
-
-// Relief mapping and POM (dmMesoMarchHeight) along a ray bent by the base's curvature: the
-// parabola dmBentPoint from the entry o at the top, equal steps of its parameter from the top to
-// where it ends (dmBentRayEnd: the floor, or the top again when a convex base bends it back up),
-// then the bisections or POM's crossing on the same parabola. The steps are `linear`, or more
-// where the parabola is longer than the straight ray to the floor: never longer than the
-// straight ray's steps (so thin walls are stepped over no more often than by the planar
-// march), at most 4 linear (the most there can be: a convex parabola that just misses the
-// floor, d.z^2 = 4 |bend| L, is 4 times as long as the straight ray). A ray bent back up
-// with no sample at or below the surface has left the shell: a miss (tHit, pHit its end). Writes
-// the hit's parameter on the straight ray (tHit: the world point is the straight ray's there)
-// and its point in the slab's coordinates (pHit: where the detail is read). bend == 0 is
-// dmMesoMarchHeight itself. View rays only (o.z = L, d.z < 0) and linear >= 1: the caller
-// checks.
-DM_TFUNC bool dmMesoMarchHeightBent(DmMesoMaps m, rvec3 o, rvec3 d, real bend, int linear, int binary, DM_OUT(real) tHit,
-                                    DM_OUT(rvec3) pHit, DM_OUT(int) count) {
-    if (bend == real(0)) {
-        bool straight = dmMesoMarchHeight(m, o, d, linear, binary, tHit, count);
-        pHit = o + d * tHit;
-        return straight;
-    }
-    bool endsAtTop;
-    real tEnd = dmBentRayEnd(real(m.layers), d, bend, endsAtTop);
-    real straightStep = dmPlaneHit(o, d, real(0)) / real(linear);
-    int steps = max(linear, int(min(ceil(tEnd / straightStep), real(4 * linear))));
+// The linear search of relief mapping and POM along the curve dmBentPoint(o, d, bend, t) (bend
+// 0: the straight ray o + t d): `steps` equal steps of t from 0 to tEnd until a sample is at or
+// below the surface, then `binary` bisections of the last step (the hit the final bracket's
+// midpoint) or, with binary < 0, POM's crossing of the segment between the last two samples. A
+// curve that ends at the top (endsAtTop: bent back up, out of the shell) with no sample at or
+// below the surface is a miss at tEnd.
+DM_TFUNC bool dmMesoHeightSearch(DmMesoMaps m, rvec3 o, rvec3 d, real bend, real tEnd, int steps, bool endsAtTop, int binary,
+                                 DM_OUT(real) tHit, DM_OUT(int) count) {
     count = 0;
     real dt = tEnd / real(steps);
     rvec2 bracket = rvec2(real(0), dt);
     real abovePrev = real(0);
     if (binary < 0) {
-        abovePrev = dmMesoAboveAt(m, o, count);
+        abovePrev = dmMesoAboveAt(m, dmBentPoint(o, d, bend, real(0)), count);
     }
     real aboveCur = real(0);
     bool crossed = false;
@@ -329,20 +273,57 @@ DM_TFUNC bool dmMesoMarchHeightBent(DmMesoMaps m, rvec3 o, rvec3 d, real bend, i
     }
     if (endsAtTop && !crossed) {
         tHit = tEnd;
-        pHit = dmBentPoint(o, d, bend, tEnd);
         return false;
     }
     if (binary < 0) {
         tHit = dmPomIntersect(bracket, abovePrev, aboveCur);
-    } else {
-        for (int j = 0; j < binary; ++j) {
-            real mid = real(0.5) * (bracket.x + bracket.y);
-            bracket = dmBisectStep(bracket, dmMesoAboveAt(m, dmBentPoint(o, d, bend, mid), count));
-        }
-        tHit = real(0.5) * (bracket.x + bracket.y);
+        return true;
     }
-    pHit = dmBentPoint(o, d, bend, tHit);
+    for (int j = 0; j < binary; ++j) {
+        real mid = real(0.5) * (bracket.x + bracket.y);
+        bracket = dmBisectStep(bracket, dmMesoAboveAt(m, dmBentPoint(o, d, bend, mid), count));
+    }
+    tHit = real(0.5) * (bracket.x + bracket.y);
     return true;
+}
+
+// Relief mapping (Policarpo et al. 2005): `linear` equal steps from the top to the bottom
+// plane until a sample is at or below the surface, then `binary` bisections; the hit is the
+// final bracket's midpoint. Parallax occlusion mapping (Tatarchuk 2006) with binary < 0: the
+// same linear search, then the crossing of the segment between the last two samples. View
+// rays only (d.z < 0) and linear >= 1: the caller checks.
+DM_TFUNC bool dmMesoMarchHeight(DmMesoMaps m, rvec3 o, rvec3 d, int linear, int binary, DM_OUT(real) tHit,
+                                DM_OUT(int) count) {
+    return dmMesoHeightSearch(m, o, d, real(0), dmPlaneHit(o, d, real(0)), linear, false, binary, tHit, count);
+}
+
+// Relief mapping and POM (dmMesoMarchHeight) along a ray bent by the base's curvature: the
+// parabola dmBentPoint from the entry o at the top, equal steps of its parameter from the top to
+// where it ends (dmBentRayEnd: the floor, or the top again when a convex base bends it back up),
+// then the bisections or POM's crossing on the same parabola (dmMesoHeightSearch). The steps are
+// `linear`, or more where the parabola is longer than the straight ray to the floor: never
+// longer than the straight ray's steps (so thin walls are stepped over no more often than by the
+// planar march), at most 4 linear (the most there can be: a convex parabola that just misses the
+// floor, d.z^2 = 4 |bend| L, is 4 times as long as the straight ray). A ray bent back up with no
+// sample at or below the surface has left the shell: a miss (tHit, pHit its end). Writes the
+// hit's parameter on the straight ray (tHit: the world point is the straight ray's there) and
+// its point in the slab's coordinates (pHit: where the detail is read). bend == 0 is
+// dmMesoMarchHeight itself. View rays only (o.z = L, d.z < 0) and linear >= 1: the caller
+// checks.
+DM_TFUNC bool dmMesoMarchHeightBent(DmMesoMaps m, rvec3 o, rvec3 d, real bend, int linear, int binary, DM_OUT(real) tHit,
+                                    DM_OUT(rvec3) pHit, DM_OUT(int) count) {
+    if (bend == real(0)) {
+        bool straight = dmMesoMarchHeight(m, o, d, linear, binary, tHit, count);
+        pHit = o + d * tHit;
+        return straight;
+    }
+    bool endsAtTop;
+    real tEnd = dmBentRayEnd(real(m.layers), d, bend, endsAtTop);
+    real straightStep = dmPlaneHit(o, d, real(0)) / real(linear);
+    int steps = max(linear, int(min(ceil(tEnd / straightStep), real(4 * linear))));
+    bool hit = dmMesoHeightSearch(m, o, d, bend, tEnd, steps, endsAtTop, binary, tHit, count);
+    pHit = dmBentPoint(o, d, bend, tHit);
+    return hit;
 }
 
 // --- Images over a tile: the albedo and the normal map (meso/albedo.h: MesoAlbedo's words) ----

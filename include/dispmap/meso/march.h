@@ -256,16 +256,23 @@ struct CompressedDdmView {
 /// renderer and the CPU marchers refuse more (a bent ray takes up to 4 times as many).
 inline constexpr int kMaxMesoLinearSteps = 1024;
 
+namespace detail {
+// What relief mapping and POM take: a finite view ray going down, 1 .. kMaxMesoLinearSteps steps.
+inline void checkHeightSearch(const glm::dvec3& o, const glm::dvec3& d, int linear, const char* what) {
+    checkRay(o, d, what);
+    if (!(d.z < 0)) throw ArgumentError("relief mapping / POM: view rays go down (d.z < 0)");
+    if (linear < 1 || linear > kMaxMesoLinearSteps)
+        throw ArgumentError("relief mapping / POM: " + std::to_string(linear) + " linear steps, not in [1, " + std::to_string(kMaxMesoLinearSteps) + "]");
+}
+} // namespace detail
+
 /// Relief mapping (Policarpo et al. 2005): `linear` equal steps from the top to the bottom
 /// plane until a sample is at or below the surface, then `binary` bisections; the hit is the
 /// final bracket's midpoint. View rays only (d.z < 0).
 /// Parallax occlusion mapping (Tatarchuk 2006) with binary < 0: the same linear search, then
 /// the crossing of the segment between the last two samples.
 template <class real> MesoHit marchHeightSearch(const MesoHeightField& hf, const glm::dvec3& o0, const glm::dvec3& d0, int linear, int binary) {
-    detail::checkRay(o0, d0, "marchHeightSearch");
-    if (!(d0.z < 0)) throw ArgumentError("relief mapping / POM: view rays go down (d.z < 0)");
-    if (linear < 1 || linear > kMaxMesoLinearSteps)
-        throw ArgumentError("relief mapping / POM: " + std::to_string(linear) + " linear steps, not in [1, " + std::to_string(kMaxMesoLinearSteps) + "]");
+    detail::checkHeightSearch(o0, d0, linear, "marchHeightSearch");
     kern::DmMesoMapsT<real> maps;
     maps.layers = hf.layers;
     maps.field = &hf;
@@ -285,10 +292,7 @@ template <class real> MesoHit marchHeightSearch(const MesoHeightField& hf, const
 template <class real>
 MesoHit marchHeightSearchBent(const MesoHeightField& hf, const glm::dvec3& o0, const glm::dvec3& d0, double bend, int linear, int binary,
                               glm::dvec3* slabPoint = nullptr) {
-    detail::checkRay(o0, d0, "marchHeightSearchBent");
-    if (!(d0.z < 0)) throw ArgumentError("relief mapping / POM: view rays go down (d.z < 0)");
-    if (linear < 1 || linear > kMaxMesoLinearSteps)
-        throw ArgumentError("relief mapping / POM: " + std::to_string(linear) + " linear steps, not in [1, " + std::to_string(kMaxMesoLinearSteps) + "]");
+    detail::checkHeightSearch(o0, d0, linear, "marchHeightSearchBent");
     if (!(o0.z == hf.layers) || !std::isfinite(bend))
         throw ArgumentError("marchHeightSearchBent: the ray must enter at the top (z = layers), with a finite bend");
     kern::DmMesoMapsT<real> maps;
