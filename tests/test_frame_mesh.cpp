@@ -467,9 +467,6 @@ TEST_CASE("a bent ray's DDM march finds the parabola's first crossing of the hei
     CHECK((a.hit == b.hit && a.t == b.t && a.iterations == b.iterations));
     CHECK_THROWS_WITH(marchMesoBent<float>(maps, MesoTechnique{}, o, -d, 0.0), Contains("must enter at the top"));
     CHECK_THROWS_WITH(marchMesoBent<float>(maps, MesoTechnique{}, o, d, std::nan("")), Contains("finite bend"));
-    MesoTechnique distance;
-    distance.method = MesoMethod::DistanceMap;
-    CHECK_THROWS_WITH(marchMesoBent<float>(maps, distance, o, d, 0.0), Contains("not the distance map or a solid"));
     const MesoMaps noShadow = buildMesoMaps(mesoFunctionField("grating", 16, 8), mesoMapOptionsFor(MesoTechnique{}, false, ConeSet{4, 1, false, false}));
     CHECK_THROWS_WITH(marchMesoBent<float>(noShadow, MesoTechnique{}, glm::dvec3(1, 1, 8), d, -0.01), Contains("needs shadow cones"));
 }
@@ -585,6 +582,82 @@ TEST_CASE("relief mapping and POM along a bent ray find the parabola's first cro
         tq.linear = 0;
         CHECK_THROWS_WITH(marchMesoBent<float>(maps, tq, o, d, 0.01), Contains("0 linear steps, not in [1, 1024]"));
     }
+}
+
+TEST_CASE("the distance map along a bent ray converges on the parabola's crossing and never passes it", "[meso][frame][silhouette]") {
+    // A flat field at h = 5.25: Donnelly's signed distance is z - h exactly at every sample (the
+    // layers' centres) and trilinear interpolation keeps it exact in between, so sphere tracing
+    // along the parabola P(t) = o + t d - bend t^2 z (kern::dmMesoMarchDistanceBent) must never
+    // take the point below the plane (each step moves it no farther than the distance read,
+    // whatever the bend) and must converge on the parabola's first crossing of z = h, the
+    // smaller root of L + d.z t - bend t^2 = h; a convex parabola that turns up before the plane
+    // rises back through the top: a miss.
+    const double h = 5.25;
+    const MesoHeightField field = mesoHeightField(32, 32, 16, std::vector<float>(32 * 32, static_cast<float>(h)));
+    MesoMapOptions mo;
+    mo.ddm = mo.quadrics = false;
+    const MesoMaps maps = buildMesoMaps(field, mo);
+    MesoTechnique tq;
+    tq.method = MesoMethod::DistanceMap;
+    tq.iterations = 4096;
+    tq.eps = 1e-10;
+    const double L = field.layers;
+    std::mt19937 g(3);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    int hits = 0, misses = 0, steep = 0;
+    double worst = 0;
+    for (int k = 0; k < 2000; ++k) {
+        const double elev = 0.1 + 1.45 * u(g), az = 6.283185307179586 * u(g);
+        const glm::dvec3 d(std::cos(elev) * std::cos(az), std::cos(elev) * std::sin(az), -std::sin(elev));
+        const glm::dvec3 o(64.0 * u(g) - 16.0, 64.0 * u(g) - 16.0, L);
+        const double bend = k % 10 == 0 ? 0.0 : (k % 2 == 0 ? -1.0 : 1.0) * std::exp(-8.0 + 7.0 * u(g));
+        // The crossing of z = h: bend t^2 - d.z t - (L - h) = 0, its smaller positive root.
+        const double c = L - h, disc = d.z * d.z + 4.0 * bend * c;
+        const double tCross = bend == 0 ? c / -d.z : disc >= 0 ? 2.0 * c / (std::sqrt(disc) - d.z) : -1.0;
+        // How fast the point falls at the crossing against the step's bound on its speed: above
+        // 1, a step of the distance itself (the straight ray's rule) would pass the plane.
+        steep += tCross > 0 && std::abs(d.z - 2.0 * bend * tCross) > 1.0 ? 1 : 0;
+        glm::dvec3 slab;
+        const MesoHit r = marchMesoBent<double>(maps, tq, o, d, bend, &slab);
+        INFO("k " << k << " d.z " << d.z << " bend " << bend << ": hit " << r.hit << " t " << r.t << " (" << r.iterations << " it), crossing " << tCross);
+        const glm::dvec3 p = o + d * r.t - glm::dvec3(0.0, 0.0, bend * r.t * r.t);
+        CHECK(glm::length(slab - p) <= 1e-12 * (1.0 + r.t)); // the slab point is the parabola's
+        if (tCross < 0) {
+            CHECK_FALSE(r.hit);
+            CHECK(slab.z > L); // it left through the top
+            ++misses;
+            continue;
+        }
+        REQUIRE(r.hit);
+        ++hits;
+        CHECK(slab.z >= h - 1e-9 * L); // never below the plane
+        CHECK(slab.z - h <= 1e-9);     // converged: within eps of it
+        CHECK(r.t <= tCross + 1e-9 * (1.0 + tCross));
+        worst = std::max(worst, std::abs(r.t - tCross));
+    }
+    INFO(hits << " hits, " << misses << " misses, " << steep << " falling faster than the step's bound, worst |t - crossing| " << worst);
+    CHECK(hits > 1000);
+    CHECK(misses > 50);
+    CHECK(steep > 100);
+    // A bend of 0 is the straight march, bit for bit, at both precisions; the errors.
+    const MesoMaps grating = buildMesoMaps(mesoFunctionField("grating", 32, 16), mesoMapOptionsFor(MesoTechnique{MesoMethod::DistanceMap}, false));
+    const glm::dvec3 o(3.3, 7.1, 16.0), d = glm::normalize(glm::dvec3(0.7, 0.2, -0.3));
+    for (const double eps : {-1.0, 0.02}) {
+        MesoTechnique dm;
+        dm.method = MesoMethod::DistanceMap;
+        dm.iterations = 32;
+        dm.eps = eps;
+        const MesoHit a = marchMesoBent<float>(grating, dm, o, d, 0.0), b = marchMeso<float>(grating, dm, o, d);
+        CHECK((a.hit == b.hit && a.t == b.t && a.iterations == b.iterations));
+        const MesoHit c = marchMesoBent<double>(grating, dm, o, d, 0.0), e = marchMeso<double>(grating, dm, o, d);
+        CHECK((c.hit == e.hit && c.t == e.t && c.iterations == e.iterations));
+    }
+    CHECK_THROWS_WITH(marchMesoBent<float>(grating, tq, o - glm::dvec3(0, 0, 1), d, 0.01), Contains("must enter at the top"));
+    CHECK_THROWS_WITH(marchMesoBent<float>(grating, tq, o, -d, 0.01), Contains("must enter at the top"));
+    CHECK_THROWS_WITH(marchMesoBent<float>(grating, tq, o, d, std::nan("")), Contains("finite bend"));
+    const MesoMaps noDistance = buildMesoMaps(mesoFunctionField("grating", 16, 8), mesoMapOptionsFor(MesoTechnique{}, false));
+    CHECK_THROWS_WITH(marchMesoBent<float>(noDistance, tq, glm::dvec3(1, 1, 8), d, 0.01), Contains("distance map was not built"));
+    CHECK_THROWS_WITH(marchMeso<float>(noDistance, tq, glm::dvec3(1, 1, 8), d), Contains("distance map was not built"));
 }
 
 TEST_CASE("a frame mesh's shape is its surface's second fundamental form in the texture's coordinates", "[meso][frame][silhouette]") {
@@ -792,15 +865,20 @@ TEST_CASE("a mesostructure scene's base surface", "[meso][frame][scene]") {
         CHECK(buildMesoSceneMaps(bent).ddm.cones.shadow);
         CHECK_FALSE(buildMesoSceneMaps(parse(scene + "}")).ddm.cones.shadow);
         CHECK_THROWS_WITH(parse(R"({"mesostructure": {}, "effects": {"bentRays": true}})"), Contains("'effects.bentRays' needs a 'base'"));
-        CHECK_THROWS_WITH(parse(scene + R"(, "effects": {"bentRays": true, "technique": "distance_map"}})"),
-                          Contains("'effects.bentRays' needs the technique \"ddm\", \"relief\" or \"pom\""));
+        // The distance map bends its rays too, and needs no DDM for them.
+        const MesoSceneDesc bentDistance = parse(scene + R"(, "effects": {"bentRays": true, "technique": "distance_map"}})");
+        CHECK(bentDistance.bentRays);
+        CHECK(buildMesoSceneMaps(bentDistance).ddm.grid.empty());
         // Relief mapping and POM bend their rays too, and read only heights: no DDM is built for them.
         const MesoSceneDesc bentPom = parse(scene + R"(, "effects": {"bentRays": true, "technique": "pom"}})");
         CHECK((bentPom.bentRays && bentPom.placement.shape));
         CHECK(buildMesoSceneMaps(bentPom).ddm.grid.empty());
-        CHECK_THROWS_WITH(parse(R"({"mesostructure": {"mesh": "../chainmail.obj"}, "base": {"mesh": "builtin:torus", "placement": "face"},
-                                   "camera": {"eye": [0, 0, -5], "up": [0, 1, 0]}, "effects": {"bentRays": true}})"),
-                          Contains("marched along straight rays: no 'effects.bentRays'"));
+        // A solid bends its rays as the DDM of a height field does: with shadow cones.
+        const MesoSceneDesc bentSolid = parse(R"({"mesostructure": {"mesh": "../chainmail.obj", "size": 16, "layers": 16},
+                                                  "base": {"mesh": "builtin:torus", "placement": "face"},
+                                                  "camera": {"eye": [0, 0, -5], "up": [0, 1, 0]}, "effects": {"bentRays": true}})");
+        const MesoMaps solidMaps = buildMesoSceneMaps(bentSolid);
+        CHECK((bentSolid.bentRays && solidMaps.isSolid() && solidMaps.ddm.cones.shadow));
     }
     SECTION("bad base objects") {
         const auto bad = [](const std::string& base, const std::string& why) {

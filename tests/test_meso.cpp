@@ -785,6 +785,109 @@ TEST_CASE("the solid's march in float (the GPU's) finds the double reference's t
     CHECK_THROWS_WITH(buildMesoSolidMaps(MesoSolid{}), Catch::Contains("empty"));
 }
 
+TEST_CASE("a bent ray's solid march finds the first crossing of its chords with the triangles", "[meso][solid][silhouette]") {
+    // On a curved base the solid is marched along the parabola P(t) = o + t d - bend t^2 z as
+    // chords (kern::dmMesoMarchDdmBent with `solid`). The reference rebuilds the same chords
+    // (their count from the rule written out here: as few as keep each within 0.05 voxels of the
+    // parabola, |bend| len^2 / 4, at most 64) and walks each voxel by voxel in double with every
+    // copy of every triangle listed there (marchSolidReference up to the chord's end; the last
+    // chord of a ray that reaches the floor goes on straight): its first crossing is the hit, a
+    // chord that leaves through the top or a parabola bent back up to the top is a miss.
+    const MesoSolid s = fourBeads();
+    MesoMapOptions opt;
+    opt.cones = ConeSet{4, 1, true, false};
+    opt.distance = false;
+    const MesoMaps maps = buildMesoSolidMaps(s, opt);
+    MesoTechnique tq;
+    tq.iterations = 1024;
+    const double L = s.layers, chordError = kMesoChordError;
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> U(0.0, 1.0);
+    int hits = 0, beads = 0, misses = 0, bentUp = 0, agreeFloat = 0, rays = 0, manyChords = 0;
+    for (int n = 0; n < 3000; ++n) {
+        const double elev = n % 3 == 0 ? 0.02 + 0.15 * U(rng) : 0.1 + 1.3 * U(rng), az = 6.283185307179586 * U(rng);
+        const glm::dvec3 d(std::cos(elev) * std::cos(az), std::cos(elev) * std::sin(az), -std::sin(elev));
+        const glm::dvec3 o(48.0 * U(rng) - 16.0, 48.0 * U(rng) - 16.0, L);
+        const double bend = n % 10 == 0 ? 0.0 : (n % 2 == 0 ? -1.0 : 1.0) * std::exp(-9.0 + 7.0 * U(rng));
+        // Where the parabola ends: the floor's root, or the top again when bent back up first.
+        const double disc = d.z * d.z + 4.0 * bend * L;
+        double tEnd = bend == 0 ? -L / d.z : disc >= 0 ? 2.0 * L / (std::sqrt(disc) - d.z) : -1.0;
+        const bool endsAtTop = bend < 0 && (tEnd < 0 || d.z / bend < tEnd);
+        if (endsAtTop) tEnd = d.z / bend;
+        const int chords = bend == 0 ? 1 : std::max(static_cast<int>(std::min(std::ceil(0.5 * tEnd * std::sqrt(std::abs(bend) / chordError)), 64.0)), 1);
+        manyChords += chords > 8 ? 1 : 0;
+        bool refHit = false;
+        double refT = tEnd;
+        for (int k = 0; k < chords; ++k) {
+            const double ta = tEnd * (double(k) / chords), tb = tEnd * (double(k + 1) / chords);
+            const glm::dvec3 pa = o + d * ta - glm::dvec3(0, 0, bend * ta * ta), pb = o + d * tb - glm::dvec3(0, 0, bend * tb * tb);
+            const double len = glm::length(pb - pa);
+            const glm::dvec3 u = (pb - pa) / len;
+            const bool open = k == chords - 1 && !endsAtTop;
+            const MesoHit r = marchSolidReference(s, pa, bend == 0 ? d : u, 1 << 20, open || bend == 0 ? std::numeric_limits<double>::infinity() : len);
+            if (r.hit && (open || r.t <= len)) {
+                refHit = true;
+                refT = bend == 0 ? r.t : ta + (tb - ta) * (r.t / len);
+                break;
+            }
+            if (!r.hit && r.t <= len) break; // out through the top
+        }
+        glm::dvec3 slab;
+        const MesoSolidHit h = marchDdmSolidBent<double>(CompressedDdmView{&maps.ddm}, maps.ddm.cones, s, o, d, bend, tq.iterations, 1, &slab);
+        INFO("n " << n << " o " << o.x << "," << o.y << " d " << d.x << "," << d.y << "," << d.z << " bend " << bend << " chords " << chords
+                  << ": march " << h.hit << " t " << h.t << " (" << h.iterations << " it), reference " << refHit << " t " << refT);
+        ++rays;
+        REQUIRE(h.hit == refHit);
+        REQUIRE(h.iterations < tq.iterations); // no hit from running out
+        bentUp += endsAtTop ? 1 : 0;
+        if (!h.hit) {
+            ++misses;
+            CHECK(h.triangle == -1);
+            continue;
+        }
+        ++hits;
+        CHECK(h.t == Approx(refT).margin(1e-9)); // both in double, the same chords
+        // The slab point is on the chord at t, within the chord error of the parabola.
+        const glm::dvec3 onParabola = o + d * h.t - glm::dvec3(0, 0, bend * h.t * h.t);
+        CHECK(glm::length(slab - onParabola) <= chordError + 1e-9);
+        if (h.triangle >= 0) {
+            ++beads;
+            // On its triangle (a copy a whole number of tiles away).
+            const auto tri = static_cast<std::size_t>(h.triangle);
+            const glm::dvec3 gap = slab - glm::dvec3(s.triangleRow(tri, 0) + h.uv.x * s.triangleRow(tri, 1) + h.uv.y * s.triangleRow(tri, 2));
+            CHECK(std::abs(gap.x - 16 * std::round(gap.x / 16)) < 1e-9);
+            CHECK(std::abs(gap.y - 16 * std::round(gap.y / 16)) < 1e-9);
+            CHECK(std::abs(gap.z) < 1e-9);
+        }
+        // In float (the GPU's arithmetic): the same answer to 1e-5 max(t, 16) (as the straight
+        // solid march above: the chords' ends and directions rounded to float as well).
+        const MesoHit f = marchMesoBent<float>(maps, tq, o, d, bend);
+        agreeFloat += f.hit && std::abs(f.t - h.t) <= 1e-5 * std::max(h.t, 16.0) ? 1 : 0;
+    }
+    INFO(rays << " rays: " << hits << " hits (" << beads << " on a bead), " << misses << " misses (" << bentUp << " bent back up), "
+              << agreeFloat << " float hits as the double's, " << manyChords << " with more than 8 chords");
+    CHECK(beads > hits / 4);
+    CHECK(misses > 50);
+    CHECK(bentUp > 50);
+    CHECK(manyChords > 100);
+    // A float ray grazing a triangle's edge may pass on its other side (0.5 % allowed).
+    CHECK(agreeFloat >= hits - hits / 200);
+    // A bend of 0 is the straight march, bit for bit; the errors.
+    const glm::dvec3 o(3.3, 7.1, L), d = glm::normalize(glm::dvec3(0.7, 0.2, -0.3));
+    const MesoSolidHit a = marchDdmSolidBent<float>(CompressedDdmView{&maps.ddm}, maps.ddm.cones, s, o, d, 0.0),
+                       b = marchDdmSolid<float>(CompressedDdmView{&maps.ddm}, maps.ddm.cones, s, o, d);
+    CHECK((a.hit == b.hit && a.t == b.t && a.iterations == b.iterations && a.triangle == b.triangle && a.uv == b.uv));
+    CHECK_THROWS_WITH(marchDdmSolidBent<float>(CompressedDdmView{&maps.ddm}, maps.ddm.cones, s, o - glm::dvec3(0, 0, 1), d, 0.01),
+                      Catch::Contains("must enter at the top"));
+    CHECK_THROWS_WITH(marchDdmSolidBent<float>(CompressedDdmView{&maps.ddm}, maps.ddm.cones, s, o, d, std::nan("")), Catch::Contains("finite bend"));
+    opt.cones = ConeSet{4, 1, false, false};
+    const MesoMaps viewOnly = buildMesoSolidMaps(s, opt);
+    CHECK_THROWS_WITH(marchMesoBent<float>(viewOnly, tq, o, d, -0.01), Catch::Contains("needs shadow cones"));
+    MesoTechnique relief;
+    relief.method = MesoMethod::Relief;
+    CHECK_THROWS_WITH(marchMesoBent<float>(maps, relief, o, d, 0.01), Catch::Contains("not a solid"));
+}
+
 TEST_CASE("the solid's corner normals survive the GPU's packing; voxel normals reach the world", "[meso][solid]") {
     const MesoSolid s = fourBeads();
     const PackedSolid packed = packSolid(s);

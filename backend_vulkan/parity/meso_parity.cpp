@@ -66,6 +66,8 @@ static_assert(sizeof(Push) == 76);
 constexpr std::int32_t kSolidMethod = 4; // parity_meso.comp's method of the solid's march
 constexpr std::int32_t kBentMethod = 5; // and of the DDM along a bent ray
 constexpr std::int32_t kBentHeightMethod = 6; // and of relief mapping / POM along a bent ray (POM: binary -1)
+constexpr std::int32_t kBentSolidMethod = 7; // and of the solid's march along a bent ray
+constexpr std::int32_t kBentDistanceMethod = 8; // and of the distance map along a bent ray
 
 // Other devices (not strict): their sqrt and division need not round correctly (Vulkan allows
 // a few ULP) and they may fuse, so a ray's decisions can go the other way where an intermediate
@@ -250,6 +252,7 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
     const Row rows[] = {
         {"march DistanceMap fixed 32", C, technique(DM, 32, -1, false, 1), 0},
         {"march DistanceMap eps 0.01 (cap 64)", C, technique(DM, 64, 0.01, false, 1), 0},
+        {"march DistanceMap eps 0.01 bent rays", C, technique(DM, 64, 0.01, false, 1), 3},
         {"march Ddm 4x1 quadrics exit(v)+d", C, technique(DDM, 128, -1, true, 1), 0},
         {"march Ddm 4x1 quadrics t+d", C, technique(DDM, 128, -1, true, 0), 0},
         {"march Ddm 4x1 no quadrics exit(v)+d", C, technique(DDM, 128, -1, false, 1), 0},
@@ -267,6 +270,7 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
         {"march Solid 4x1 exit(v)+d", S, technique(DDM, 256, -1, false, 1), 0},
         {"march Solid 4x1 t+d", S, technique(DDM, 256, -1, false, 0), 0},
         {"march Solid 4x1+shadow shadow", S, technique(DDM, 256, -1, false, 1), 1},
+        {"march Solid 4x1 bent rays", S, technique(DDM, 256, kMesoChordError, false, 1), 3},
         {"march Solid isotropic exit(v)+d", SI, technique(DDM, 256, -1, false, 1), 2},
     };
     std::vector<const Row*> selected;
@@ -317,17 +321,20 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
         const vulkan::MesoBuffers gpuMaps = vulkan::uploadMesoMaps(ctx, maps);
         for (const Row* row : selected) {
             if (row->maps != kind) continue;
-            const std::vector<GpuRay>& rays = isSolid ? (row->rays == 0 ? solidView : row->rays == 1 ? solidShadow : solidMixed)
-                                                      : (row->rays == 0 ? view : row->rays == 1 ? shadow : row->rays == 3 ? bent : mixed);
+            // (The solid has the field's 16 layers: the bent rays enter at its top too.)
+            const std::vector<GpuRay>& rays = row->rays == 3 ? bent
+                                              : isSolid      ? (row->rays == 0 ? solidView : row->rays == 1 ? solidShadow : solidMixed)
+                                                             : (row->rays == 0 ? view : row->rays == 1 ? shadow : mixed);
             rayBuf.upload(rays.data(), rays.size() * sizeof(GpuRay));
             const auto count = static_cast<std::uint32_t>(rays.size());
             const std::uint32_t groupsX = std::min<std::uint32_t>((count + 63) / 64, 32768);
             const std::uint32_t groupsY = (count + groupsX * 64 - 1) / (groupsX * 64);
             const MesoTechnique& tq = row->tq;
             const Push push{vulkan::mesoGpuSize(maps),
-                            isSolid            ? kSolidMethod
-                            : row->rays != 3   ? static_cast<std::int32_t>(tq.method)
+                            row->rays != 3     ? (isSolid ? kSolidMethod : static_cast<std::int32_t>(tq.method))
+                            : isSolid          ? kBentSolidMethod
                             : tq.method == DDM ? kBentMethod
+                            : tq.method == DM  ? kBentDistanceMethod
                                                : kBentHeightMethod,
                             tq.iterations,
                             static_cast<float>(tq.eps),
@@ -342,7 +349,7 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
             KernelResult res;
             res.kernel = row->name;
             res.precision = "float";
-            res.contract = isSolid ? "march: div" : "march: sqrt, div";
+            res.contract = isSolid && row->rays != 3 ? "march: div" : "march: sqrt, div"; // a bent ray: chords (sqrt)
             // Strict: bit-exact decisions and t (a zero t by value). Else |t| in voxels, see kMesoDeviceVoxels.
             res.unit = strict ? (isSolid ? "t ULP max(|t|,1); hit,n,tri" : "t: ULP max(|t|,1); hit, n") : "|t| voxels; 0.1% over";
             res.bound = strict ? 0.0 : kMesoDeviceVoxels;
@@ -359,8 +366,10 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
                 MesoHit cpu;
                 int triangle = -1;
                 if (isSolid) {
-                    const MesoSolidHit h = marchDdmSolid<float>(CompressedDdmView{&maps.ddm}, maps.ddm.cones, maps.solid, glm::dvec3(o),
-                                                                glm::dvec3(d), tq.iterations, tq.exitRule);
+                    const MesoSolidHit h = row->rays == 3 ? marchDdmSolidBent<float>(CompressedDdmView{&maps.ddm}, maps.ddm.cones, maps.solid, glm::dvec3(o),
+                                                                                     glm::dvec3(d), double(rays[i].o.w), tq.iterations, tq.exitRule)
+                                                          : marchDdmSolid<float>(CompressedDdmView{&maps.ddm}, maps.ddm.cones, maps.solid, glm::dvec3(o),
+                                                                                 glm::dvec3(d), tq.iterations, tq.exitRule);
                     cpu = h;
                     triangle = h.triangle;
                 } else if (row->rays == 3) {

@@ -109,8 +109,6 @@ void validateLook(const Context& ctx, const MesoMaps& maps, const MesoLook& o, c
         throw ArgumentError("meso renderer: a solid (non-height-field) mesostructure is marched by the DDM (technique 'ddm'); the others read heights");
     if (maps.isSolid() && o.normalMap)
         throw ArgumentError("meso renderer: a solid (non-height-field) mesostructure is shaded by its own normals; a normal map needs a height field");
-    if (scene.bentRays && (t.method == MesoMethod::DistanceMap || maps.isSolid()))
-        throw ArgumentError("meso renderer: bent rays are marched by the DDM, relief mapping or POM over a height field, not by the distance map or over a solid");
     if (scene.bentRays && t.method == MesoMethod::Ddm && !maps.ddm.grid.empty() && !maps.ddm.cones.isotropic && !maps.ddm.cones.shadow)
         throw ArgumentError("meso renderer: bent rays rise again where the base is convex: their DDM needs shadow cones (ConeSet::shadow) or to be isotropic");
     if (!(o.depth > 0) || !std::isfinite(o.depth)) throw ArgumentError("meso renderer: the slab depth must be finite and > 0");

@@ -115,6 +115,7 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
     // With shadow cones: the bent march's chords rise again where the cylinder curves away (the
     // view cones, and the straight march, are the same without them).
     MesoMapOptions mo = mesoMapOptionsFor(MesoTechnique{}, true, parseConeSet("4x1"));
+    mo.distance = true; // Donnelly's map for the second table's distance-map columns
     const MesoMaps maps = buildMesoMaps(field, mo);
     MesoTechnique tq;
     tq.iterations = 1024;
@@ -122,11 +123,15 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
     out << "| delta / R | incidence | error p50 | error p90 | false hits | false hits, silhouettes | false misses, silhouettes | "
            "bent: error p50 | bent: error p90 | bent: false hits | bent: false misses |\n"
            "|---|---|---|---|---|---|---|---|---|---|---|\n";
-    // Relief mapping (32 steps + 6 bisections) and POM (32 steps) on the same rays, planar and
-    // bent (kern::dmMesoMarchHeightBent): a second table.
-    MesoTechnique relief, pom;
+    // Relief mapping (32 steps + 6 bisections), POM (32 steps) and Donnelly's distance map (eps
+    // 0.02, at most 64 steps) on the same rays, planar and bent (kern::dmMesoMarchHeightBent,
+    // kern::dmMesoMarchDistanceBent): a second table.
+    MesoTechnique relief, pom, distance;
     relief.method = MesoMethod::Relief;
     pom.method = MesoMethod::Pom;
+    distance.method = MesoMethod::DistanceMap;
+    distance.iterations = 64;
+    distance.eps = 0.02;
     std::ostringstream heightRows;
     std::mt19937 gen(2026);
     std::uniform_real_distribution<double> u01(0.0, 1.0);
@@ -135,7 +140,7 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
         const glm::dvec3 vpu(field.width, field.height, field.layers / delta);
         for (const auto& band : incidence) {
             CurvedCell cell;
-            HeightCell reliefCell, pomCell;
+            HeightCell reliefCell, pomCell, distanceCell;
             for (int r = 0; r < 400; ++r) {
                 const double theta = 3.141592653589793 * (2.0 * u01(gen) - 1.0), z = 10.0 * T * u01(gen);
                 const glm::dvec3 n(std::cos(theta), std::sin(theta), 0.0), tangent(-std::sin(theta), std::cos(theta), 0.0), axis(0, 0, 1);
@@ -172,7 +177,7 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
                 }
                 if (bent.hit && exactHits) cell.bentError.push_back(glm::length(slab - exact));
                 const double bend = kern::dmShellBend(d, shape, vpu);
-                for (auto [tqh, hc] : {std::pair{&relief, &reliefCell}, std::pair{&pom, &pomCell}}) {
+                for (auto [tqh, hc] : {std::pair{&relief, &reliefCell}, std::pair{&pom, &pomCell}, std::pair{&distance, &distanceCell}}) {
                     const MesoHit hp = marchMeso<double>(maps, *tqh, o, d);
                     glm::dvec3 hs(0.0);
                     const MesoHit hb = marchMesoBent<double>(maps, *tqh, o, d, bend, &hs);
@@ -180,7 +185,7 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
                 }
             }
             heightRows << std::defaultfloat << std::setprecision(3) << "| " << ratio << " | " << band[0] << "–" << band[1] << "°";
-            for (const HeightCell* hc : {&reliefCell, &pomCell}) {
+            for (const HeightCell* hc : {&reliefCell, &pomCell, &distanceCell}) {
                 const double n = static_cast<double>(cell.rays);
                 heightRows << std::defaultfloat << std::setprecision(3) << " | " << percentileOf(hc->planarError, 0.5) << " / "
                            << percentileOf(hc->planarError, 0.9) << " | " << std::fixed << std::setprecision(1)
@@ -203,12 +208,14 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
             out << row.str();
         }
     }
-    out << "\nRelief mapping (32 linear steps + 6 bisections) and POM (32 steps) on the same rays and field, planar (the ray in the entry's "
-           "frame) and bent (kern::dmMesoMarchHeightBent: the linear search and its refinement on the parabola itself); error "
+    out << "\nRelief mapping (32 linear steps + 6 bisections), POM (32 steps) and Donnelly's distance map (eps 0.02, at most 64 "
+           "steps) on the same rays and field, planar (the ray in the entry's frame) and bent (kern::dmMesoMarchHeightBent: the "
+           "linear search and its refinement on the parabola itself; kern::dmMesoMarchDistanceBent: sphere tracing along it); error "
            "p50 / p90 as above, false hits / false misses against the exact shell:\n\n"
            "| delta / R | incidence | relief: error | relief: false hits / misses | relief bent: error | relief bent: false hits / misses "
-           "| POM: error | POM: false hits / misses | POM bent: error | POM bent: false hits / misses |\n"
-           "|---|---|---|---|---|---|---|---|---|---|\n"
+           "| POM: error | POM: false hits / misses | POM bent: error | POM bent: false hits / misses "
+           "| distance map: error | distance map: false hits / misses | distance map bent: error | distance map bent: false hits / misses |\n"
+           "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
         << heightRows.str();
 
     // The renderer on a curved base beside the plane: the Spot scene of tests/data.
@@ -276,6 +283,35 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
             out << "| Spot, " << name << " | " << stats(vulkan::renderMeso(ctx, m, o)) << " |\n";
             o.bentRays = true;
             out << "| Spot, " << name << ", bent rays | " << stats(vulkan::renderMeso(ctx, m, o)) << " |\n";
+        }
+        // The distance map on the same base (its own maps: the scene's are the DDM's).
+        {
+            MesoSceneDesc ds = shaped;
+            ds.technique.method = MesoMethod::DistanceMap;
+            ds.technique.iterations = 64;
+            ds.technique.eps = 0.02;
+            const MesoMaps dm = buildMesoSceneMaps(ds);
+            o.technique = ds.technique;
+            o.bentRays = false;
+            out << "| Spot, distance map eps 0.02 | " << stats(vulkan::renderMeso(ctx, dm, o)) << " |\n";
+            o.bentRays = true;
+            out << "| Spot, distance map eps 0.02, bent rays | " << stats(vulkan::renderMeso(ctx, dm, o)) << " |\n";
+        }
+        // A solid on Spot (the chain mail scene of tests/data, its own camera and light), straight and bent.
+        {
+            const std::string chain = args.dataDir + "/scenes/meso_spot_chainmail.json";
+            MesoSceneDesc cs = parseMesoScene(loadSceneJson(chain), chain, args.dataDir + "/scenes");
+            cs.bentRays = true; // its maps then carry the shadow cones a bent ray needs, and its base the curvature
+            cs.placement.shape = true;
+            const MesoMaps cm = buildMesoSceneMaps(cs);
+            vulkan::MesoRenderOptions co = mesoSceneRenderOptions(cs);
+            co.frames = args.gpuFrames;
+            co.warmup = args.gpuWarmup;
+            co.base = buildMesoSceneBase(cs);
+            co.bentRays = false;
+            out << "| Spot, chain mail (a solid; its scene) | " << stats(vulkan::renderMeso(ctx, cm, co)) << " |\n";
+            co.bentRays = true;
+            out << "| Spot, chain mail, bent rays | " << stats(vulkan::renderMeso(ctx, cm, co)) << " |\n";
         }
     } catch (const Error& e) {
         out << "\n(no renderer rows: " << e.what() << ")\n";

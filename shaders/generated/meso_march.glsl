@@ -11,27 +11,53 @@
 #define rvec4 vec4
 #define rmat3 mat3
 #line 39 "include/dispmap/kernels/meso_march.h"
-// Donnelly's sphere tracing: `iterations` steps of the trilinearly read distance, or fewer
-// when it falls to eps or below (dmSphereTraceStep). The hit is where the last step ends; a
-// ray that rose through the top is a miss.
-DM_TFUNC bool dmMesoMarchDistance(DmMesoMaps m, rvec3 o, rvec3 d, int iterations, real eps, DM_OUT(real) tHit,
-                                  DM_OUT(int) count) {
+// Where the parabola from the top ends: on the floor (dmBentFloor), or, bent up (bend < 0,
+// convex), back at the top at t = d.z / bend when that comes first (endsAtTop: the ray has
+// left the shell there).
+DM_TFUNC real dmBentRayEnd(real L, rvec3 d, real bend, DM_OUT(bool) endsAtTop) {
+    real tEnd = dmBentFloor(rvec3(real(0), real(0), L), d, bend, real(-1));
+    endsAtTop = false;
+    if (bend < real(0)) {
+        real tTop = d.z / bend;
+        endsAtTop = tEnd < real(0) || tTop < tEnd;
+        tEnd = endsAtTop ? tTop : tEnd;
+    }
+    return tEnd;
+}
+
+// Donnelly's sphere tracing along the curve dmBentPoint(o, d, bend, t) (bend 0: the straight
+// ray): `iterations` steps of the trilinearly read distance, or fewer when it falls to eps or
+// below (dmSphereTraceStep: each step moves the point along the curve no farther than the
+// distance read). The hit is where the last step ends (tHit its parameter, pHit the point); a
+// curve that rose through the top is a miss.
+DM_TFUNC bool dmMesoMarchDistanceBent(DmMesoMaps m, rvec3 o, rvec3 d, real bend, int iterations, real eps, DM_OUT(real) tHit,
+                                      DM_OUT(rvec3) pHit, DM_OUT(int) count) {
     count = 0;
     real t = real(0);
+    rvec3 p = o;
     int status = 0;
     for (int i = 0; i < iterations && status == 0; ++i) {
         rvec3 f;
-        ivec3 c = dmDistanceSampleCell(o + d * t, m.layers, f);
+        ivec3 c = dmDistanceSampleCell(p, m.layers, f);
         rvec4 lo = rvec4(real(dmMesoFetchDistance(m, c.x, c.y, c.z)), real(dmMesoFetchDistance(m, c.x + 1, c.y, c.z)),
                          real(dmMesoFetchDistance(m, c.x + 1, c.y + 1, c.z)), real(dmMesoFetchDistance(m, c.x, c.y + 1, c.z)));
         rvec4 hi = rvec4(real(dmMesoFetchDistance(m, c.x, c.y, c.z + 1)), real(dmMesoFetchDistance(m, c.x + 1, c.y, c.z + 1)),
                          real(dmMesoFetchDistance(m, c.x + 1, c.y + 1, c.z + 1)),
                          real(dmMesoFetchDistance(m, c.x, c.y + 1, c.z + 1)));
         count = count + 1;
-        status = dmSphereTraceStep(t, dmTrilerp(lo, hi, f), eps, o, d, m.layers);
+        status = dmSphereTraceStep(t, dmTrilerp(lo, hi, f), eps, o, d, bend, m.layers);
+        p = dmBentPoint(o, d, bend, t);
     }
     tHit = t;
+    pHit = p;
     return status != 2;
+}
+
+// Donnelly's sphere tracing along the straight ray (dmMesoMarchDistanceBent with bend 0).
+DM_TFUNC bool dmMesoMarchDistance(DmMesoMaps m, rvec3 o, rvec3 d, int iterations, real eps, DM_OUT(real) tHit,
+                                  DM_OUT(int) count) {
+    rvec3 p;
+    return dmMesoMarchDistanceBent(m, o, d, real(0), iterations, eps, tHit, p, count);
 }
 
 // Algorithm 3.1 (sphere tracing a conservative DDM, quadric intersection 3.2, voxel walls 3.3)
@@ -78,99 +104,6 @@ DM_TFUNC bool dmMesoMarchDdm(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int cone
     return hit;
 }
 
-// A ray bent by the base's curvature, in the slab's own coordinates (the top at z = L): the
-// parabola P(t) = o + t d - bend t^2 z from the entry o (o.z = L, d going down, unit), t the
-// parameter of the straight world ray (dmMesoMarchDdmBent below).
-DM_TFUNC rvec3 dmBentPoint(rvec3 o, rvec3 d, real bend, real t) {
-    return o + d * t - rvec3(real(0), real(0), bend * (t * t));
-}
-
-// Where that parabola ends: on the floor, z(t) = L + d.z t - bend t^2 = 0 (the smaller root, if
-// it gets there), or, bent up (bend < 0, convex), back at the top at t = d.z / bend when that
-// comes first (endsAtTop: the ray has left the shell there).
-DM_TFUNC real dmBentRayEnd(real L, rvec3 d, real bend, DM_OUT(bool) endsAtTop) {
-    real tEnd = real(0);
-    real disc = d.z * d.z + real(4) * bend * L;
-    if (disc >= real(0)) {
-        tEnd = (real(2) * L) / (sqrt(disc) - d.z);
-    }
-    endsAtTop = false;
-    if (bend < real(0)) {
-        real tTop = d.z / bend;
-        endsAtTop = !(disc >= real(0)) || tTop < tEnd;
-        tEnd = endsAtTop ? tTop : tEnd;
-    }
-    return tEnd;
-}
-
-// The DDM march along a ray bent by the base's curvature (Donnelly's locally planar model with
-// the quadric of the shell's top, kern::dmShellBend): in the slab's own coordinates, where the
-// top lies at z = L everywhere, the straight world ray from the entry o (o.z = L, d going down,
-// unit) is the parabola P(t) = o + t d - bend t^2 z. It ends on the floor (z = 0) or, bent up
-// (bend < 0, convex), back at the top, where it has left the shell: a miss, the silhouette of
-// the detail itself. It is marched as chords of equal parameter length, each a straight
-// dmMesoMarchDdm that stops past the chord's end, as few as keep every chord within
-// `chordError` voxels of the parabola (|bend| len^2 / 4 for a chord of parameter length len), at
-// most 64; the last chord goes on straight when the parabola ends on the floor, and ends at the
-// top when it comes back there (a miss). A hit on a chord is the hit; a chord that leaves
-// through the top misses. Writes the hit's parameter on the straight ray (tHit: the world point
-// is the straight ray's there) and its point in the slab's coordinates (pHit: where the detail
-// is read), and the iterations of all chords together (at most maxIterations; running out is a
-// hit, as dmMesoMarchDdm). bend == 0 is dmMesoMarchDdm itself.
-DM_TFUNC bool dmMesoMarchDdmBent(DmMesoMaps m, rvec3 o, rvec3 d, real bend, int coneM, int coneN, int maxIterations, bool quadrics,
-                                 int exitRule, real tol, real chordError, DM_OUT(real) tHit, DM_OUT(rvec3) pHit, DM_OUT(int) count) {
-    bool endsAtTop; // bent back up to the top before the floor: out of the shell
-    real tEnd = dmBentRayEnd(real(m.layers), d, bend, endsAtTop);
-    if (bend == real(0)) {
-        bool straight = dmMesoMarchDdm(m, o, d, coneM, coneN, maxIterations, quadrics, exitRule, tol, real(3.0e38), tHit, count);
-        pHit = o + d * tHit;
-        return straight;
-    }
-    int chords = max(int(min(ceil(real(0.5) * tEnd * sqrt(abs(bend) / chordError)), real(64))), 1);
-    count = 0;
-    tHit = real(0);
-    pHit = o;
-    for (int k = 0; k < chords; ++k) {
-        real ta = tEnd * (real(k) / real(chords));
-        real tb = tEnd * (real(k + 1) / real(chords));
-        rvec3 pa = dmBentPoint(o, d, bend, ta);
-        rvec3 pb = dmBentPoint(o, d, bend, tb);
-        rvec3 u = pb - pa;
-        real len = sqrt(dmDot3(u, u));
-        if (!(len > real(0))) {
-            // A chord shorter than float resolves (a ray grazing a convex top): it leaves there.
-            tHit = ta;
-            pHit = pa;
-            return false;
-        }
-        u = u * (real(1) / len);
-        bool last = k == chords - 1;
-        // The last chord of a ray that reaches the floor goes on straight; one that comes back
-        // to the top ends there too (rounding may leave its end a float step inside, and a
-        // march along the top layer must not run on).
-        real tMax = last && !endsAtTop ? real(3.0e38) : len;
-        real tc;
-        int used;
-        bool hit = dmMesoMarchDdm(m, pa, u, coneM, coneN, maxIterations - count, quadrics, exitRule, tol, tMax, tc, used);
-        count = count + used;
-        tHit = ta + (tb - ta) * (tc / len);
-        pHit = pa + u * tc;
-        if (hit && tc <= tMax) {
-            return true;
-        }
-        if (!hit && tc <= tMax) {
-            return false; // out through the top within the chord
-        }
-        if (count >= maxIterations) {
-            return true; // out of iterations: a hit where it stopped (conservative)
-        }
-    }
-    // Only a ray bent back to the top gets here: it has left the shell.
-    tHit = tEnd;
-    pHit = dmBentPoint(o, d, bend, tEnd);
-    return false;
-}
-
 // Algorithm 3.1 over a solid (non-height-field detail, meso/solid.h): the march of
 // dmMesoMarchDdm where a voxel whose distance is 0 tests the ray exactly against the triangles
 // listed for it and moves on to the next voxel when none is crossed inside it. An entry names
@@ -180,9 +113,10 @@ DM_TFUNC bool dmMesoMarchDdmBent(DmMesoMaps m, rvec3 o, rvec3 d, real bend, int 
 // counts within tol (1 + t) of the voxel's span: a face on a voxel wall is listed on both
 // sides, and the two frames round its t differently. The floor z < 0 is solid. Writes the
 // triangle hit (-1: the floor, or running out of iterations) and the barycentric uv there;
-// one iteration per voxel visited, whatever its triangle count.
+// one iteration per voxel visited, whatever its triangle count. tMax: as dmMesoMarchDdm (a
+// chord of a bent ray; a crossing found beyond it in the voxel where it stops is returned).
 DM_TFUNC bool dmMesoMarchDdmSolid(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int coneN, int maxIterations, int exitRule, real tol,
-                                  DM_OUT(real) tHit, DM_OUT(int) count, DM_OUT(int) triangle, DM_OUT(rvec2) uv) {
+                                  real tMax, DM_OUT(real) tHit, DM_OUT(int) count, DM_OUT(int) triangle, DM_OUT(rvec2) uv) {
     int cone = dmConeIndex(d, coneM, coneN);
     bool hit = true; // until the ray leaves, as dmMesoMarchDdm
     count = 0;
@@ -195,6 +129,10 @@ DM_TFUNC bool dmMesoMarchDdmSolid(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int
         bool below;
         if (dmDdmLeftSlab(v, m.layers, o, d, t, below)) {
             hit = below;
+            break;
+        }
+        if (t > tMax) {
+            hit = false;
             break;
         }
         count = count + 1;
@@ -235,6 +173,83 @@ DM_TFUNC bool dmMesoMarchDdmSolid(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int
     }
     tHit = t;
     return hit;
+}
+
+// The DDM march along a ray bent by the base's curvature (Donnelly's locally planar model with
+// the quadric of the shell's top, kern::dmShellBend): in the slab's own coordinates, where the
+// top lies at z = L everywhere, the straight world ray from the entry o (o.z = L, d going down,
+// unit) is the parabola P(t) = o + t d - bend t^2 z. It ends on the floor (z = 0) or, bent up
+// (bend < 0, convex), back at the top, where it has left the shell: a miss, the silhouette of
+// the detail itself. It is marched as chords of equal parameter length, each a straight
+// dmMesoMarchDdm (a height field's, with its quadrics) or, with `solid`, dmMesoMarchDdmSolid
+// (a solid's triangles) that stops past the chord's end, as few as keep every chord within
+// `chordError` voxels of the parabola (|bend| len^2 / 4 for a chord of parameter length len), at
+// most 64; the last chord goes on straight when the parabola ends on the floor, and ends at the
+// top when it comes back there (a miss). A hit on a chord is the hit; a chord that leaves
+// through the top misses. Writes the hit's parameter on the straight ray (tHit: the world point
+// is the straight ray's there) and its point in the slab's coordinates (pHit: where the detail
+// is read), the iterations of all chords together (at most maxIterations; running out is a
+// hit, as dmMesoMarchDdm) and, for a solid, the triangle hit and its barycentric uv (-1 and 0
+// for the floor, a miss or a height field). bend == 0 is the straight march itself.
+DM_TFUNC bool dmMesoMarchDdmBent(DmMesoMaps m, rvec3 o, rvec3 d, real bend, int coneM, int coneN, int maxIterations, bool quadrics,
+                                 bool solid, int exitRule, real tol, real chordError, DM_OUT(real) tHit, DM_OUT(rvec3) pHit,
+                                 DM_OUT(int) count, DM_OUT(int) triangle, DM_OUT(rvec2) uv) {
+    bool endsAtTop; // bent back up to the top before the floor: out of the shell
+    real tEnd = dmBentRayEnd(real(m.layers), d, bend, endsAtTop);
+    triangle = -1;
+    uv = rvec2(real(0));
+    if (bend == real(0)) {
+        bool straight = solid ? dmMesoMarchDdmSolid(m, o, d, coneM, coneN, maxIterations, exitRule, tol, real(3.0e38), tHit, count, triangle, uv)
+                              : dmMesoMarchDdm(m, o, d, coneM, coneN, maxIterations, quadrics, exitRule, tol, real(3.0e38), tHit, count);
+        pHit = o + d * tHit;
+        return straight;
+    }
+    int chords = max(int(min(ceil(real(0.5) * tEnd * sqrt(abs(bend) / chordError)), real(64))), 1);
+    count = 0;
+    tHit = real(0);
+    pHit = o;
+    for (int k = 0; k < chords; ++k) {
+        real ta = tEnd * (real(k) / real(chords));
+        real tb = tEnd * (real(k + 1) / real(chords));
+        rvec3 pa = dmBentPoint(o, d, bend, ta);
+        rvec3 pb = dmBentPoint(o, d, bend, tb);
+        rvec3 u = pb - pa;
+        real len = sqrt(dmDot3(u, u));
+        if (!(len > real(0))) {
+            // A chord shorter than float resolves (a ray grazing a convex top): it leaves there.
+            tHit = ta;
+            pHit = pa;
+            return false;
+        }
+        u = u * (real(1) / len);
+        bool last = k == chords - 1;
+        // The last chord of a ray that reaches the floor goes on straight; one that comes back
+        // to the top ends there too (rounding may leave its end a float step inside, and a
+        // march along the top layer must not run on).
+        real tMax = last && !endsAtTop ? real(3.0e38) : len;
+        real tc;
+        int used;
+        bool hit = solid ? dmMesoMarchDdmSolid(m, pa, u, coneM, coneN, maxIterations - count, exitRule, tol, tMax, tc, used, triangle, uv)
+                         : dmMesoMarchDdm(m, pa, u, coneM, coneN, maxIterations - count, quadrics, exitRule, tol, tMax, tc, used);
+        count = count + used;
+        tHit = ta + (tb - ta) * (tc / len);
+        pHit = pa + u * tc;
+        if (hit && tc <= tMax) {
+            return true;
+        }
+        if (!hit && tc <= tMax) {
+            return false; // out through the top within the chord
+        }
+        if (count >= maxIterations) {
+            return true; // out of iterations: a hit where it stopped (conservative)
+        }
+    }
+    // Only a ray bent back to the top gets here: it has left the shell.
+    tHit = tEnd;
+    pHit = dmBentPoint(o, d, bend, tEnd);
+    triangle = -1;
+    uv = rvec2(real(0));
+    return false;
 }
 
 // Height of the point p above the height field (one fetch, counted).

@@ -145,17 +145,16 @@ DmMesoHit dmMarchDistanceMap(DmMesoSize s, vec3 o, vec3 d, int iterations, float
     r.hit = dmMesoMarchDistance(s, o, d, iterations, eps, r.t, r.iterations);
     return r;
 }
+// The same along the ray bent by the base's curvature (bend: dmShellBend); p: the hit in the
+// slab's coordinates (t is the straight ray's).
+DmMesoHit dmMarchDistanceMapBent(DmMesoSize s, vec3 o, vec3 d, float bend, int iterations, float eps, out vec3 p) {
+    DmMesoHit r;
+    r.hit = dmMesoMarchDistanceBent(s, o, d, bend, iterations, eps, r.t, p, r.iterations);
+    return r;
+}
 DmMesoHit dmMarchDdm(DmMesoSize s, vec3 o, vec3 d, int maxIterations, bool quadrics, int exitRule) {
     DmMesoHit r;
     r.hit = dmMesoMarchDdm(s, o, d, s.coneM, s.coneN, maxIterations, quadrics, exitRule, s.tol, 3.0e38, r.t, r.iterations);
-    return r;
-}
-// The DDM march along the ray bent by the base's curvature (bend: dmShellBend); p: the hit in
-// the slab's coordinates (t is the straight ray's).
-DmMesoHit dmMarchDdmBent(DmMesoSize s, vec3 o, vec3 d, float bend, int maxIterations, bool quadrics, int exitRule, float chordError,
-                         out vec3 p) {
-    DmMesoHit r;
-    r.hit = dmMesoMarchDdmBent(s, o, d, bend, s.coneM, s.coneN, maxIterations, quadrics, exitRule, s.tol, chordError, r.t, p, r.iterations);
     return r;
 }
 // A solid's march (DDM with the triangles of its 0 voxels); triangle and uv: the triangle hit.
@@ -164,9 +163,19 @@ struct DmMesoSolidHit {
     int triangle;
     vec2 uv;
 };
+// The DDM march along the ray bent by the base's curvature (bend: dmShellBend), a height
+// field's (quadrics or not) or with `solid` a solid's; p: the hit in the slab's coordinates (t
+// is the straight ray's); triangle and uv: the solid's triangle hit (-1 otherwise).
+DmMesoSolidHit dmMarchDdmBent(DmMesoSize s, vec3 o, vec3 d, float bend, int maxIterations, bool quadrics, bool solid, int exitRule,
+                              float chordError, out vec3 p) {
+    DmMesoSolidHit r;
+    r.h.hit = dmMesoMarchDdmBent(s, o, d, bend, s.coneM, s.coneN, maxIterations, quadrics, solid, exitRule, s.tol, chordError, r.h.t, p,
+                                 r.h.iterations, r.triangle, r.uv);
+    return r;
+}
 DmMesoSolidHit dmMarchDdmSolid(DmMesoSize s, vec3 o, vec3 d, int maxIterations, int exitRule) {
     DmMesoSolidHit r;
-    r.h.hit = dmMesoMarchDdmSolid(s, o, d, s.coneM, s.coneN, maxIterations, exitRule, s.tol, r.h.t, r.h.iterations, r.triangle, r.uv);
+    r.h.hit = dmMesoMarchDdmSolid(s, o, d, s.coneM, s.coneN, maxIterations, exitRule, s.tol, 3.0e38, r.h.t, r.h.iterations, r.triangle, r.uv);
     return r;
 }
 // The voxel-space shading normal at a solid hit: the corners' normals (the rows' w) mixed by the

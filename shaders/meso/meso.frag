@@ -12,9 +12,10 @@
 // depth is the hit's (dmFramePoint), so the detail occludes and is occluded where it is, and a ray that misses
 // (it leaves through the top, e.g. from a back face) writes the far plane: what lies behind
 // it shows through; with kSilhouettes so does a hit past the point where the ray leaves the
-// curved shell (dmShellExit on the interpolated second fundamental form); with kBentRays the
-// DDM, relief mapping or POM marches the view ray bent by that curvature in the slab's own
-// coordinates (it then leaves the shell by itself). Every formula is a kernel (kernels/meso.h, kernels/meso_shade.h);
+// curved shell (dmShellExit on the interpolated second fundamental form); with kBentRays every
+// marcher (the distance map, the DDM of a height field or a solid, relief mapping, POM) marches
+// the view ray bent by that curvature in the slab's own coordinates (it then leaves the shell
+// by itself). Every formula is a kernel (kernels/meso.h, kernels/meso_shade.h);
 // march.glsl holds the loops.
 #extension GL_GOOGLE_include_directive : require
 #define DM_MESO_SET 0
@@ -39,7 +40,7 @@ layout(constant_id = 10) const bool kAlbedo = false;    // the albedo image (bin
 layout(constant_id = 11) const bool kNormalMap = false; // the normal map (binding 7 from params.dims2.y on) shades, else the height field's normal
 layout(constant_id = 12) const bool kSolid = false;     // a non-height-field solid (bindings 8, 9): its DDM march (kMethod 1) and corner normals
 layout(constant_id = 13) const bool kSilhouettes = false; // on a base mesh: hits past where the ray leaves the curved shell are misses (dmShellExit)
-layout(constant_id = 14) const bool kBentRays = false;  // on a base mesh, the DDM, relief or POM on a height field: the view ray bent by the base's curvature (dmMesoMarchDdmBent, dmMesoMarchHeightBent)
+layout(constant_id = 14) const bool kBentRays = false;  // on a base mesh: the view ray bent by the base's curvature (dmMesoMarchDistanceBent, dmMesoMarchDdmBent, dmMesoMarchHeightBent)
 
 layout(location = 0) in vec3 worldPos;
 layout(location = 1) in vec2 tex;
@@ -93,16 +94,22 @@ void main() {
         h.hit = false;
         h.t = 0.0;
         h.iterations = 0;
+    } else if (kMethod == 0 && kBentRays && kBase != 0) {
+        bend = dmShellBend(d, shell, vpu);
+        h = dmMarchDistanceMapBent(s, o, d, bend, kIterations, kEps, bentPoint);
     } else if (kMethod == 0) {
         h = dmMarchDistanceMap(s, o, d, kIterations, kEps);
+    } else if (kMethod == 1 && kBentRays && kBase != 0) {
+        bend = dmShellBend(d, shell, vpu);
+        DmMesoSolidHit sh = dmMarchDdmBent(s, o, d, bend, kIterations, kQuadrics, kSolid, kExitRule, 0.05, bentPoint); // 0.05: kMesoChordError
+        h = sh.h;
+        entry = sh.triangle;
+        bary = sh.uv;
     } else if (kMethod == 1 && kSolid) {
         DmMesoSolidHit sh = dmMarchDdmSolid(s, o, d, kIterations, kExitRule);
         h = sh.h;
         entry = sh.triangle;
         bary = sh.uv;
-    } else if (kMethod == 1 && kBentRays && kBase != 0) {
-        bend = dmShellBend(d, shell, vpu);
-        h = dmMarchDdmBent(s, o, d, bend, kIterations, kQuadrics, kExitRule, 0.05, bentPoint); // 0.05: kMesoChordError
     } else if (kMethod == 1) {
         h = dmMarchDdm(s, o, d, kIterations, kQuadrics, kExitRule);
     } else if (kBentRays && kBase != 0) {
@@ -142,13 +149,14 @@ void main() {
     vec3 n;
     vec3 so; // the shadow ray's origin
     if (kSolid) {
-        // The triangle's corner normals at the hit, turned to the ray's side (the floor's: up);
+        // The triangle's corner normals at the hit, turned to the ray's side (the floor's: up;
+        // a bent ray's side is its direction there, the parabola's tangent d - 2 bend t z);
         // the shadow ray leaves along the face's own normal.
         vec3 nv = vec3(0.0, 0.0, 1.0);
         vec3 gv = nv;
         if (entry >= 0) {
             nv = dmMesoSolidNormal(entry, bary);
-            gv = dmMesoSolidFacing(s, entry, d, nv);
+            gv = dmMesoSolidFacing(s, entry, kBentRays ? d - vec3(0.0, 0.0, 2.0 * bend * h.t) : d, nv);
         }
         n = dmFrameVoxelNormal(nv, axisS, axisT, axisN, vpu);
         so = p + gv * params.tol.y;

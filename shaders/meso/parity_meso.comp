@@ -21,7 +21,7 @@ layout(push_constant) uniform Push {
     int coneM;
     int coneN;
     float tol;
-    int method;    // 0 distance map, 1 DDM, 2 relief, 3 POM (MesoMethod's order), 4 the solid's DDM march, 5 the DDM along a bent ray (bend: o.w; eps: the chord error), 6 relief (binary >= 0) or POM (binary < 0) along a bent ray
+    int method;    // 0 distance map, 1 DDM, 2 relief, 3 POM (MesoMethod's order), 4 the solid's DDM march, 5 the DDM along a bent ray (bend: o.w; eps: the chord error), 6 relief (binary >= 0) or POM (binary < 0) along a bent ray, 7 the solid's DDM along a bent ray, 8 the distance map along a bent ray
     int iterations;
     float eps;
     int quadrics;
@@ -63,9 +63,14 @@ void main() {
         DmMesoSolidHit sh = dmMarchDdmSolid(s, o, d, pc.iterations, pc.exitRule);
         h = sh.h;
         entry = sh.triangle;
-    } else if (pc.method == 5) {
+    } else if (pc.method == 5 || pc.method == 7) {
         vec3 p;
-        h = dmMarchDdmBent(s, o, d, rays[i].o.w, pc.iterations, pc.quadrics != 0, pc.exitRule, pc.eps, p);
+        DmMesoSolidHit sh = dmMarchDdmBent(s, o, d, rays[i].o.w, pc.iterations, pc.quadrics != 0, pc.method == 7, pc.exitRule, pc.eps, p);
+        h = sh.h;
+        entry = sh.triangle;
+    } else if (pc.method == 8) {
+        vec3 p;
+        h = dmMarchDistanceMapBent(s, o, d, rays[i].o.w, pc.iterations, pc.eps, p);
     } else if (pc.method == 6) {
         vec3 p;
         h = dmMarchHeightSearchBent(s, o, d, rays[i].o.w, pc.linear, pc.binary, p);

@@ -397,21 +397,47 @@ DM_TFUNC real dmTrilerp(rvec4 lo, rvec4 hi, rvec3 f) {
     return dmBilerp(lo, xy) * (real(1) - f.z) + dmBilerp(hi, xy) * f.z;
 }
 
+// A ray bent by the base's curvature, in the slab's own coordinates (the top at z = L): the
+// parabola P(t) = o + t d - bend t^2 z from the entry o (o.z = L, d going down, unit), t the
+// parameter of the straight world ray (kern::dmShellBend gives the bend; bend 0 is the straight
+// ray itself, to the bit).
+DM_TFUNC rvec3 dmBentPoint(rvec3 o, rvec3 d, real bend, real t) {
+    return o + d * t - rvec3(real(0), real(0), bend * (t * t));
+}
+
+// Where that curve from o (o.z >= 0, d going down) meets the floor z = 0: its smaller root,
+// 2 o.z / (sqrt(d.z^2 + 4 bend o.z) - d.z) (the straight ray's dmPlaneHit for bend 0), or
+// `none` where it has no root (a convex curve that turns up before the floor).
+DM_TFUNC real dmBentFloor(rvec3 o, rvec3 d, real bend, real none) {
+    if (bend == real(0)) {
+        return dmPlaneHit(o, d, real(0));
+    }
+    real disc = d.z * d.z + real(4) * bend * o.z;
+    return disc >= real(0) ? (real(2) * o.z) / (sqrt(disc) - d.z) : none;
+}
+
 // One sphere-tracing step (Hart 1996; Donnelly §8.3) with the interpolated distance `dist`
-// at o + t d: returns 1 when converged (dist <= eps; a fixed iteration count passes eps < 0),
-// 2 when the step leaves through the top (a miss), 0 to go on. A step below the bottom plane
-// stops on it (1): the solid fills z < 0.
-DM_TFUNC int dmSphereTraceStep(DM_INOUT(real) t, real dist, real eps, rvec3 o, rvec3 d, int L) {
+// at the point of parameter t on the curve o + t d - bend t^2 z (bend 0: the straight ray; a
+// ray bent by a curved base, dmBentPoint above): returns 1 when converged
+// (dist <= eps; a fixed iteration count passes eps < 0), 2 when the step leaves through the
+// top (a miss), 0 to go on. The step dt moves the point by |dt d - bend (2 t + dt) dt z| <=
+// dt (1 + |bend| (2 t + dt)), which the root of |bend| dt^2 + (1 + 2 |bend| t) dt = dist keeps
+// within the distance read (for bend 0 it is dist itself, to the bit). A step below the bottom
+// plane stops on it (1): the solid fills z < 0.
+DM_TFUNC int dmSphereTraceStep(DM_INOUT(real) t, real dist, real eps, rvec3 o, rvec3 d, real bend, int L) {
     if (dist <= eps) {
         return 1;
     }
-    t = t + max(dist, real(0));
-    real z = o.z + t * d.z;
+    real a = abs(bend);
+    real s = real(1) + real(2) * a * t;
+    real r = max(dist, real(0));
+    t = t + (real(2) * r) / (s + sqrt(s * s + real(4) * a * r));
+    real z = o.z + t * d.z - bend * (t * t);
     if (z > real(L)) {
         return 2;
     }
     if (z < real(0)) {
-        t = dmPlaneHit(o, d, real(0));
+        t = dmBentFloor(o, d, bend, t); // (a convex curve rounded just below the floor may have no root: stay)
         return 1;
     }
     return 0;

@@ -149,12 +149,22 @@ MesoHit marchReference(const MesoHeightField& hf, const glm::dvec3& o0, const gl
     return r;
 }
 
+namespace detail {
+// A distance map the marchers can read (`who` names the caller).
+inline void checkDistanceMap(const DistanceMap& m, const char* who) {
+    if (m.width <= 0 || m.height <= 0 || m.layers <= 0 || m.d.empty())
+        throw ArgumentError(std::string(who) + ": the distance map was not built (MesoMapOptions::distance, or a technique that reads it)");
+}
+} // namespace detail
+
 /// Donnelly's sphere tracing: `iterations` steps of the trilinearly read distance, or fewer
 /// when it falls to eps or below (eps < 0: the fixed count, as the chapter's shader, except
 /// that a signed distance at or below eps, deep inside the solid, still stops it).
 /// The hit is where the last step ends; a ray that rose through the top is a miss.
+/// ArgumentError for a map that was not built.
 template <class real> MesoHit marchDistanceMap(const DistanceMap& m, const glm::dvec3& o0, const glm::dvec3& d0, int iterations, double eps) {
     detail::checkRay(o0, d0, "marchDistanceMap");
+    detail::checkDistanceMap(m, "marchDistanceMap");
     kern::DmMesoMapsT<real> maps;
     maps.layers = m.layers;
     maps.distance = &m;
@@ -163,6 +173,32 @@ template <class real> MesoHit marchDistanceMap(const DistanceMap& m, const glm::
     r.hit = kern::dmMesoMarchDistance(maps, detail::v3<real>(o0), detail::v3<real>(d0), iterations, static_cast<real>(eps), t,
                                       r.iterations);
     r.t = static_cast<double>(t);
+    return r;
+}
+
+/// marchDistanceMap along the ray bent by a curved base (kern::dmMesoMarchDistanceBent: each
+/// step moves the point along the parabola no farther than the distance read; `bend` from
+/// kern::dmShellBend at the entry o0, a view ray from the top: o0.z = layers, d0 going down).
+/// The hit's t is the straight ray's; `slabPoint` (if given) gets the hit in the slab's
+/// coordinates, where the detail is read. ArgumentError for an entry off the top, an upward
+/// ray or a bend that is not finite.
+template <class real>
+MesoHit marchDistanceMapBent(const DistanceMap& m, const glm::dvec3& o0, const glm::dvec3& d0, double bend, int iterations, double eps,
+                             glm::dvec3* slabPoint = nullptr) {
+    detail::checkRay(o0, d0, "marchDistanceMapBent");
+    detail::checkDistanceMap(m, "marchDistanceMapBent");
+    if (!(o0.z == m.layers) || !(d0.z < 0) || !std::isfinite(bend))
+        throw ArgumentError("marchDistanceMapBent: the ray must enter at the top (z = layers) going down, with a finite bend");
+    kern::DmMesoMapsT<real> maps;
+    maps.layers = m.layers;
+    maps.distance = &m;
+    MesoHit r;
+    real t = 0;
+    glm::vec<3, real> p;
+    r.hit = kern::dmMesoMarchDistanceBent(maps, detail::v3<real>(o0), detail::v3<real>(d0), static_cast<real>(bend), iterations,
+                                          static_cast<real>(eps), t, p, r.iterations);
+    r.t = static_cast<double>(t);
+    if (slabPoint) *slabPoint = glm::dvec3(p);
     return r;
 }
 
@@ -231,9 +267,11 @@ MesoHit marchDdmBent(const Map& map, const ConeSet& cones, int layers, const Col
     MesoHit r;
     real t = 0;
     glm::vec<3, real> p;
+    int triangle;
+    glm::vec<2, real> uv;
     r.hit = kern::dmMesoMarchDdmBent(maps, detail::v3<real>(o0), detail::v3<real>(d0), static_cast<real>(bend), cones.kernelM(), cones.n,
-                                     opt.maxIterations, opt.quadrics, opt.exitRule, mesoRootTolerance<real>(), real(kMesoChordError), t, p,
-                                     r.iterations);
+                                     opt.maxIterations, opt.quadrics, false, opt.exitRule, mesoRootTolerance<real>(), real(kMesoChordError), t,
+                                     p, r.iterations, triangle, uv);
     r.t = static_cast<double>(t);
     if (slabPoint) *slabPoint = glm::dvec3(p);
     return r;
@@ -352,40 +390,86 @@ struct MesoSolidHit : MesoHit {
     glm::dvec2 uv{0};
 };
 
-/// Algorithm 3.1 over the solid's (dense or compressed) DDM with exact triangle tests in the
-/// voxels whose distance is 0 (kern::dmMesoMarchDdmSolid, the loop the GPU runs), in `real`;
-/// the floor z = 0 is a hit. ArgumentError for an upward ray on a map without shadow cones.
-template <class real = double, class Map>
-MesoSolidHit marchDdmSolid(const Map& map, const ConeSet& cones, const MesoSolid& s, const glm::dvec3& o, const glm::dvec3& d,
-                           int maxIterations = 1024, int exitRule = 1) {
-    detail::checkRay(o, d, "marchDdmSolid");
-    if (d.z > 0 && !cones.isotropic && !cones.shadow) throw ArgumentError("marchDdmSolid: an upward (shadow) ray needs shadow cones");
+namespace detail {
+// The kernels' view of a solid's DDM after the checks both solid marchers make (`who`).
+template <class real, class Map>
+kern::DmMesoMapsT<real> solidMaps(const Map& map, const ConeSet& cones, const MesoSolid& s, const glm::dvec3& o, const glm::dvec3& d,
+                                  bool rises, const char* who) {
+    checkRay(o, d, who);
+    if (rises && !cones.isotropic && !cones.shadow)
+        throw ArgumentError(std::string(who) + (d.z > 0 ? ": an upward (shadow) ray needs shadow cones"
+                                                        : ": a ray bent back up marches upward chords: the map needs shadow cones (or to be isotropic)"));
     if (map.m->width != s.width || map.m->height != s.height || map.m->layers != s.layers || s.entryStart.size() != s.voxelSolid.size() + 1)
-        throw ArgumentError("marchDdmSolid: the map and the solid differ in size (buildMesoSolidMaps builds both)");
+        throw ArgumentError(std::string(who) + ": the map and the solid differ in size (buildMesoSolidMaps builds both)");
     kern::DmMesoMapsT<real> maps;
     maps.layers = s.layers;
     maps.width = s.width;
     maps.height = s.height;
     maps.solid = &s;
     map.bind(maps);
+    return maps;
+}
+} // namespace detail
+
+/// Algorithm 3.1 over the solid's (dense or compressed) DDM with exact triangle tests in the
+/// voxels whose distance is 0 (kern::dmMesoMarchDdmSolid, the loop the GPU runs), in `real`;
+/// the floor z = 0 is a hit. ArgumentError for an upward ray on a map without shadow cones.
+template <class real = double, class Map>
+MesoSolidHit marchDdmSolid(const Map& map, const ConeSet& cones, const MesoSolid& s, const glm::dvec3& o, const glm::dvec3& d,
+                           int maxIterations = 1024, int exitRule = 1) {
+    const kern::DmMesoMapsT<real> maps = detail::solidMaps<real>(map, cones, s, o, d, d.z > 0, "marchDdmSolid");
     MesoSolidHit r;
     real t = 0;
     glm::vec<2, real> uv(0);
     r.hit = kern::dmMesoMarchDdmSolid(maps, detail::v3<real>(o), detail::v3<real>(d), cones.kernelM(), cones.n, maxIterations, exitRule,
-                                      mesoRootTolerance<real>(), t, r.iterations, r.triangle, uv);
+                                      mesoRootTolerance<real>(), real(3.0e38), t, r.iterations, r.triangle, uv);
     r.t = static_cast<double>(t);
     r.uv = glm::dvec2(uv);
     return r;
 }
 
-/// The exact reference for the solid: every voxel along the ray (3D DDA), its triangles, the floor.
-inline MesoHit marchSolidReference(const MesoSolid& s, const glm::dvec3& o, const glm::dvec3& d, int maxVoxels = 1 << 20) {
+/// marchDdmSolid along the ray bent by a curved base (kern::dmMesoMarchDdmBent with `solid`:
+/// chords within kMesoChordError voxels of the parabola, each marched with the solid's exact
+/// triangle tests; `bend` from kern::dmShellBend at the entry o, a view ray from the top:
+/// o.z = layers, d going down). The hit's t is the straight ray's; `slabPoint` (if given) gets
+/// the hit in the slab's coordinates, where the triangle is. ArgumentError as marchDdmSolid,
+/// for a map without shadow cones (a convex base bends rays back up), an entry off the top, an
+/// upward ray or a bend that is not finite.
+template <class real = double, class Map>
+MesoSolidHit marchDdmSolidBent(const Map& map, const ConeSet& cones, const MesoSolid& s, const glm::dvec3& o, const glm::dvec3& d, double bend,
+                               int maxIterations = 1024, int exitRule = 1, glm::dvec3* slabPoint = nullptr) {
+    const kern::DmMesoMapsT<real> maps = detail::solidMaps<real>(map, cones, s, o, d, true, "marchDdmSolidBent");
+    if (!(o.z == s.layers) || !(d.z < 0) || !std::isfinite(bend))
+        throw ArgumentError("marchDdmSolidBent: the ray must enter at the top (z = layers) going down, with a finite bend");
+    MesoSolidHit r;
+    real t = 0;
+    glm::vec<3, real> p;
+    glm::vec<2, real> uv(0);
+    r.hit = kern::dmMesoMarchDdmBent(maps, detail::v3<real>(o), detail::v3<real>(d), static_cast<real>(bend), cones.kernelM(), cones.n,
+                                     maxIterations, false, true, exitRule, mesoRootTolerance<real>(), real(kMesoChordError), t, p, r.iterations,
+                                     r.triangle, uv);
+    r.t = static_cast<double>(t);
+    r.uv = glm::dvec2(uv);
+    if (slabPoint) *slabPoint = glm::dvec3(p);
+    return r;
+}
+
+/// The exact reference for the solid: every voxel along the ray (3D DDA), its triangles, the
+/// floor. tMax: the walk stops, as a miss with t > tMax, once it has passed tMax (a segment,
+/// e.g. a chord of a bent ray); a crossing found beyond it in the voxel where it stops is
+/// returned as it is.
+inline MesoHit marchSolidReference(const MesoSolid& s, const glm::dvec3& o, const glm::dvec3& d, int maxVoxels = 1 << 20,
+                                   double tMax = std::numeric_limits<double>::infinity()) {
     detail::checkRay(o, d, "marchSolidReference");
     MesoHit r;
     double t = 0;
     glm::ivec3 v = kern::dmVoxelAt(o, d);
     for (int i = 0; i < maxVoxels; ++i) {
         if (kern::dmDdmLeftSlab(v, s.layers, o, d, t, r.hit)) break;
+        if (t > tMax) {
+            r.hit = false;
+            break;
+        }
         ++r.iterations;
         int axis;
         const double tExit = kern::dmVoxelExit(o, d, v, axis);
@@ -507,21 +591,30 @@ inline MesoMapOptions mesoMapOptionsFor(const MesoTechnique& technique, bool sha
 }
 
 /// One view ray through `maps` by `technique` along the ray bent by a curved base (`bend`:
-/// kern::dmShellBend at the entry): the DDM (marchDdmBent), relief mapping or POM
-/// (marchHeightSearchBent) on a height field (ArgumentError for the distance map or a solid).
-/// `slabPoint`: as marchDdmBent.
+/// kern::dmShellBend at the entry): the distance map (marchDistanceMapBent), the DDM
+/// (marchDdmBent; marchDdmSolidBent over a solid), relief mapping or POM
+/// (marchHeightSearchBent). `slabPoint`: the hit in the slab's coordinates.
 template <class real>
 MesoHit marchMesoBent(const MesoMaps& maps, const MesoTechnique& tq, const glm::dvec3& o, const glm::dvec3& d, double bend,
                       glm::dvec3* slabPoint = nullptr) {
-    if (tq.method == MesoMethod::DistanceMap || maps.isSolid())
-        throw ArgumentError("marchMesoBent: bent rays are marched by the DDM, relief mapping or POM over a height field, not the distance map or a solid");
-    if (tq.method != MesoMethod::Ddm)
+    switch (tq.method) {
+    case MesoMethod::DistanceMap:
+        return marchDistanceMapBent<real>(maps.distance, o, d, bend, tq.iterations, tq.eps, slabPoint);
+    case MesoMethod::Ddm: {
+        if (maps.isSolid())
+            return marchDdmSolidBent<real>(CompressedDdmView{&maps.ddm}, maps.ddm.cones, maps.solid, o, d, bend, tq.iterations, tq.exitRule, slabPoint);
+        DdmMarch opt;
+        opt.maxIterations = tq.iterations;
+        opt.quadrics = tq.quadrics;
+        opt.exitRule = tq.exitRule;
+        return marchDdmBent<real>(CompressedDdmView{&maps.ddm}, maps.ddm.cones, maps.field.layers, &maps.quadrics, o, d, bend, opt, slabPoint);
+    }
+    case MesoMethod::Relief:
+    case MesoMethod::Pom:
+        if (maps.isSolid()) throw ArgumentError("marchMesoBent: relief mapping and POM march height fields, not a solid");
         return marchHeightSearchBent<real>(maps.field, o, d, bend, tq.linear, tq.method == MesoMethod::Pom ? -1 : tq.binary, slabPoint);
-    DdmMarch opt;
-    opt.maxIterations = tq.iterations;
-    opt.quadrics = tq.quadrics;
-    opt.exitRule = tq.exitRule;
-    return marchDdmBent<real>(CompressedDdmView{&maps.ddm}, maps.ddm.cones, maps.field.layers, &maps.quadrics, o, d, bend, opt, slabPoint);
+    }
+    throw ArgumentError("marchMesoBent: unknown method");
 }
 
 /// One ray through `maps` by `technique`, in `real`.

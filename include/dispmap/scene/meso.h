@@ -440,7 +440,6 @@ inline void parseMesoPart(const nlohmann::json& m, const std::string& baseDir, M
             if (m.contains(key)) throw fail("'" + where + "." + key + "' applies to a height field, not to a 'mesh'");
         if (s.technique.method != MesoMethod::Ddm)
             throw fail("'" + where + ".mesh' (non-height-field detail) is marched by the DDM: 'effects.technique' must be \"ddm\"");
-        if (s.bentRays) throw fail("'" + where + ".mesh' (non-height-field detail) is marched along straight rays: no 'effects.bentRays'");
         s.mesh = path("mesh");
     }
     if (m.contains("meshTile")) {
@@ -594,8 +593,6 @@ inline MesoSceneDesc parseMesoScene(const nlohmann::json& j, const std::string& 
     if (j.contains("base")) parseMesoBase(j["base"], name, baseDir, s);
     if (s.silhouettes && !s.base) throw fail("'effects.silhouettes' needs a 'base' (the plane z = 0 has no silhouettes of its own)");
     if (s.bentRays && !s.base) throw fail("'effects.bentRays' needs a 'base' (the plane z = 0 is not curved)");
-    if (s.bentRays && s.technique.method == MesoMethod::DistanceMap)
-        throw fail("'effects.bentRays' needs the technique \"ddm\", \"relief\" or \"pom\" (the distance map marches straight rays)");
     s.placement.shape = s.silhouettes || s.bentRays;
     if (!s.base && !(s.eye.z > 0)) throw fail("'camera.eye' must be above the plane z = 0 (eye.z > 0)");
     if (!(glm::length(s.target - s.eye) > 0)) throw fail("'camera.eye' and 'camera.target' are the same point");
