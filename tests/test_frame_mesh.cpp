@@ -277,6 +277,51 @@ TEST_CASE("dmShellExit: where a ray leaves the curved shell through its top", "[
         }
         CHECK(spheres > 100);
     }
+    SECTION("a bent ray's point in the slab lies at the world point's depth below a cylinder's or a ball's top") {
+        // kern::dmBentPoint with the bend (dmShellBend) and the curve (the most convex curvature
+        // in voxels) of the base: at every t at which the straight world ray is inside the shell,
+        // the slab height is L - depth vpu.z, the depth R - |X - C| of the world point X.
+        // Without the curve (the parabola) the quadric's level is taken for the depth: off by
+        // depth^2 / (2 R), a quarter of the depth at the floor at the renderer's limit (and its
+        // floor, where the level is the depth, twice as deep as the true one).
+        std::mt19937 g(29);
+        std::uniform_real_distribution<double> u(-1.0, 1.0);
+        const double L = 16.0;
+        double worst = 0, worstParabola = 0;
+        int points = 0;
+        for (int k = 0; k < 400; ++k) {
+            const bool ball = k % 2 == 1;
+            glm::dvec3 pS(0.3, 0.0, 0.0), pT(0.0, 0.4, 0.0), n(0.0, 0.0, 1.0);
+            if (ball) {
+                randomFrame(g, pS, pT, n);
+                n = glm::normalize(glm::cross(pS, pT)) * (glm::dot(n, glm::cross(pS, pT)) < 0 ? -1.0 : 1.0);
+            }
+            const double R = std::exp(1.5 * u(g)), delta = R * (0.01 + 0.245 * (1.0 + u(g))); // up to the limit, delta / R = 1/2
+            const glm::dvec3 vpu(40.0, 96.0, L / delta);
+            // The cylinder's axis along pT (K_yy = 0); the ball: II = -G / R in any chart.
+            const glm::dvec4 shape = ball ? glm::dvec4(-glm::dot(pS, pS) / R, -glm::dot(pS, pT) / R, -glm::dot(pT, pT) / R, -1.0 / R)
+                                          : glm::dvec4(-glm::dot(pS, pS) / R, 0.0, 0.0, -1.0 / R);
+            const glm::dvec3 o(5.0, 6.0, L), d = glm::normalize(glm::dvec3(u(g), u(g), -0.02 - std::abs(u(g))));
+            const double bend = kern::dmShellBend(d, shape, vpu), curve = kern::dmShellVoxels(shape, vpu).w;
+            const glm::dvec3 P(1.0, 2.0, 3.0), C = P - n * R;
+            const glm::dvec3 D = pS * (d.x / vpu.x) + pT * (d.y / vpu.y) + n * (d.z / vpu.z); // d's world image
+            for (int i = 1; i <= 200; ++i) {
+                const double t = i * 0.5;
+                const glm::dvec3 X = P + D * t;
+                const glm::dvec3 r = ball ? X - C : (X - C) - glm::normalize(pT) * glm::dot(X - C, glm::normalize(pT));
+                const double depth = R - glm::length(r);
+                if (depth < 0 || depth > delta) break; // out of the shell
+                const double z = kern::dmBentPoint(o, d, bend, curve, t).z, zParabola = kern::dmBentPoint(o, d, bend, 0.0, t).z;
+                worst = std::max(worst, std::abs(z - (L - depth * vpu.z)));
+                worstParabola = std::max(worstParabola, std::abs(zParabola - (L - depth * vpu.z)));
+                ++points;
+            }
+        }
+        INFO(points << " points: worst |z - exact| " << worst << " voxels; the parabola's " << worstParabola);
+        CHECK(points > 5000);
+        CHECK(worst < 1e-9 * L);
+        CHECK(worstParabola > 0.2 * L); // measured 3.96 voxels of 16
+    }
     SECTION("random shells and rays, at both precisions, against a fine walk of the top's height over the ray") {
         std::mt19937 g(17);
         std::uniform_real_distribution<double> u(-1.0, 1.0);
@@ -337,26 +382,27 @@ double steepestStep(const MesoHeightField& field) {
     return steep;
 }
 
-// A reference for marches along a bent ray: the parabola P(t) = o + t d - bend t^2 z walked in
-// steps of 1/64 voxel over the bilinear field (the floor solid). tNear: the first point within
-// `near` of the surface or below it; tDeep: the first `deep` below it (-1: none before the ray
-// leaves); leaves: it came back above the top first.
+// A reference for marches along a bent ray: the curve kern::dmBentPoint (with curve 0 the
+// parabola P(t) = o + t d - bend t^2 z) walked in steps of 1/64 of its parameter over the
+// bilinear field (the floor solid). tNear: the first point within `near` of the surface or
+// below it; tDeep: the first `deep` below it (-1: none before the ray leaves); leaves: it came
+// back above the top first.
 struct BentWalk {
     double tNear = -1, tDeep = -1;
     bool leaves = false;
 };
 // How far P(t) lies below the bilinear surface (< 0: above it); the floor is solid.
-double bentBelow(const MesoHeightField& field, const glm::dvec3& o, const glm::dvec3& d, double bend, double t) {
-    const glm::dvec3 p = o + d * t - glm::dvec3(0.0, 0.0, bend * t * t);
+double bentBelow(const MesoHeightField& field, const glm::dvec3& o, const glm::dvec3& d, const MesoBend& bend, double t) {
+    const glm::dvec3 p = kern::dmBentPoint(o, d, bend.bend, bend.curve, t);
     glm::dvec2 f;
     const glm::ivec2 c = kern::dmHeightCell(glm::dvec2(p.x, p.y), f);
     return std::max(kern::dmBilerp(glm::dvec4(field.cell(c.x, c.y)), f), 0.0) - p.z;
 }
-BentWalk walkBentRay(const MesoHeightField& field, const glm::dvec3& o, const glm::dvec3& d, double bend, double near, double deep) {
+BentWalk walkBentRay(const MesoHeightField& field, const glm::dvec3& o, const glm::dvec3& d, const MesoBend& bend, double near, double deep) {
     const auto below = [&](double t) { return bentBelow(field, o, d, bend, t); };
     BentWalk w;
     for (double t = 0.0; t < 4096.0; t += 1.0 / 64.0) {
-        const double z = o.z + d.z * t - bend * t * t;
+        const double z = kern::dmBentPoint(o, d, bend.bend, bend.curve, t).z;
         if (t > 0 && z > field.layers) { // back above the top: left the shell
             w.leaves = true;
             break;
@@ -369,6 +415,26 @@ BentWalk walkBentRay(const MesoHeightField& field, const glm::dvec3& o, const gl
         }
     }
     return w;
+}
+
+// A bent ray from the top of a slab L deep (MesoBend): where it ends (the floor, D(F) = L at F =
+// L + c L^2 / 2, or the top again, F = 0, when a convex bend turns it up first), written out
+// here on its own; its depth rate D' at the floor; the bound z'' <= D' (2 |bend| + |c| D'^2
+// F'^2) on its curvature (F' = 2 bend t - d.z at its largest).
+struct BentEnd {
+    double tEnd = 0, rate = 1, zpp = 0;
+    bool atTop = false;
+};
+BentEnd bentEnd(double L, const glm::dvec3& d, const MesoBend& b) {
+    BentEnd e;
+    const double f = L + 0.5 * b.curve * L * L, disc = d.z * d.z + 4.0 * b.bend * f;
+    e.tEnd = b.bend == 0 ? -L / d.z : disc >= 0 ? 2.0 * f / (std::sqrt(disc) - d.z) : -1.0;
+    e.atTop = b.bend < 0 && (e.tEnd < 0 || d.z / b.bend < e.tEnd);
+    if (e.atTop) e.tEnd = d.z / b.bend;
+    e.rate = 1.0 / (1.0 + b.curve * L);
+    const double slope = std::max(std::abs(d.z), std::abs(2.0 * b.bend * e.tEnd - d.z));
+    e.zpp = e.rate * (2.0 * std::abs(b.bend) + std::abs(b.curve) * e.rate * e.rate * slope * slope);
+    return e;
 }
 
 TEST_CASE("a bent ray's DDM march finds the parabola's first crossing of the height field", "[meso][frame][silhouette]") {
@@ -387,8 +453,9 @@ TEST_CASE("a bent ray's DDM march finds the parabola's first crossing of the hei
         tq.iterations = 512;
         const double L = field.layers, eChord = kMesoChordError;
         // The walk's own blind spot: between two of its points (1/64 of a voxel or less apart
-        // horizontally) the field changes by at most its steepest texel step / 64.
-        const double walkSlack = steepestStep(field) / 64.0 + 1.0 / 64.0;
+        // horizontally) the field changes by at most its steepest texel step / 64 and the ray by
+        // its vertical speed / 64 (at most 2: a depth rate up to 2, below).
+        const double walkSlack = steepestStep(field) / 64.0 + 2.0 / 64.0;
         std::mt19937 g(5);
         std::uniform_real_distribution<double> u(0.0, 1.0);
         int hits = 0, misses = 0, bentUp = 0, straight = 0, checked = 0;
@@ -396,20 +463,23 @@ TEST_CASE("a bent ray's DDM march finds the parabola's first crossing of the hei
             const double elev = (k % 3 == 0 ? 0.02 + 0.15 * u(g) : 0.1 + 1.3 * u(g)), az = 6.283185307179586 * u(g);
             const glm::dvec3 d(std::cos(elev) * std::cos(az), std::cos(elev) * std::sin(az), -std::sin(elev));
             const glm::dvec3 o(64.0 * u(g) - 16.0, 64.0 * u(g) - 16.0, L);
-            const double bend = k % 10 == 0 ? 0.0 : (k % 2 == 0 ? -1.0 : 1.0) * std::exp(-9.0 + 7.0 * u(g));
+            // Every third ray's depth follows a convex base's curvature (MesoBend::curve) up to the
+            // renderer's limit (c L = -1/2).
+            const MesoBend bend(k % 10 == 0 ? 0.0 : (k % 2 == 0 ? -1.0 : 1.0) * std::exp(-9.0 + 7.0 * u(g)), k % 3 == 1 ? -0.5 * u(g) / L : 0.0);
             // The chords' error: kMesoChordError, or more where the march's 64 chords are too few
-            // for the parabola's length (to the floor, or back to the top: tEnd).
-            const double tFloor = bend == 0 ? -L / d.z : (d.z + std::sqrt(std::max(d.z * d.z + 4.0 * bend * L, 0.0))) / (2.0 * bend);
-            const double tEnd = bend < 0 ? (d.z * d.z + 4.0 * bend * L >= 0 ? std::min(std::abs(tFloor), d.z / bend) : d.z / bend) : std::abs(tFloor);
-            const double e = std::max(eChord, std::abs(bend) * (tEnd / 64.0) * (tEnd / 64.0) / 4.0);
+            // for the curve's length (to the floor, or back to the top: tEnd).
+            const BentEnd end = bentEnd(L, d, bend);
+            const double tEnd = end.tEnd;
+            const double e = std::max(eChord, end.zpp * (tEnd / 64.0) * (tEnd / 64.0) / 8.0);
             const BentWalk w = walkBentRay(field, o, d, bend, e + walkSlack, e);
             const double tNear = w.tNear, tDeep = w.tDeep;
             const bool leaves = w.leaves;
             glm::dvec3 slab;
             const MesoHit h = marchMesoBent<double>(maps, tq, o, d, bend, &slab);
-            INFO(function << " k " << k << " bend " << bend << " hit " << h.hit << " t " << h.t << " n " << h.iterations << " near " << tNear << " deep " << tDeep);
-            bentUp += bend < 0 && leaves ? 1 : 0;
-            straight += bend == 0 ? 1 : 0;
+            INFO(function << " k " << k << " bend " << bend.bend << " curve " << bend.curve << " hit " << h.hit << " t " << h.t << " n " << h.iterations
+                          << " near " << tNear << " deep " << tDeep);
+            bentUp += bend.bend < 0 && leaves ? 1 : 0;
+            straight += bend.bend == 0 ? 1 : 0;
             if (tNear < 0) {
                 CHECK_FALSE(h.hit);
                 ++misses;
@@ -422,8 +492,8 @@ TEST_CASE("a bent ray's DDM march finds the parabola's first crossing of the hei
                 // (one step of slack either side).
                 CHECK(h.t >= tNear - 1.0 / 64.0);
                 CHECK(h.t <= tDeep + 1.0 / 64.0);
-                // The hit's slab point is on the parabola to the chords' error.
-                const glm::dvec3 p = o + d * h.t - glm::dvec3(0.0, 0.0, bend * h.t * h.t);
+                // The hit's slab point is on the curve to the chords' error.
+                const glm::dvec3 p = kern::dmBentPoint(o, d, bend.bend, bend.curve, h.t);
                 CHECK(glm::length(slab - p) <= e + 1e-9 * (1.0 + h.t));
                 ++checked;
             }
@@ -487,7 +557,7 @@ TEST_CASE("relief mapping and POM along a bent ray find the parabola's first cro
         const MesoHeightField field = mesoFunctionField(function, 32, 16);
         const MesoMaps maps = buildMesoMaps(field, mesoMapOptionsFor(MesoTechnique{MesoMethod::Relief}, false));
         REQUIRE(maps.ddm.grid.empty()); // relief mapping reads heights only
-        const double L = field.layers, steep = steepestStep(field), walkSlack = steep / 64.0 + 1.0 / 64.0;
+        const double L = field.layers, steep = steepestStep(field), walkSlack = steep / 64.0 + 2.0 / 64.0;
         std::mt19937 g(11);
         std::uniform_real_distribution<double> u(0.0, 1.0);
         for (const MesoMethod method : {MesoMethod::Relief, MesoMethod::Pom}) {
@@ -500,21 +570,23 @@ TEST_CASE("relief mapping and POM along a bent ray find the parabola's first cro
                 const double elev = 0.1 + 1.3 * u(g), az = 6.283185307179586 * u(g);
                 const glm::dvec3 d(std::cos(elev) * std::cos(az), std::cos(elev) * std::sin(az), -std::sin(elev));
                 const glm::dvec3 o(64.0 * u(g) - 16.0, 64.0 * u(g) - 16.0, L);
-                const double bend = k % 10 == 0 ? 0.0 : (k % 2 == 0 ? -1.0 : 1.0) * std::exp(-9.0 + 7.0 * u(g));
-                bool endsAtTop = false;
-                const double tEnd = kern::dmBentRayEnd(L, d, bend, endsAtTop), straightStep = (-L / d.z) / tq.linear;
-                const int steps = bend == 0 ? tq.linear : std::max(tq.linear, int(std::min(std::ceil(tEnd / straightStep), 4.0 * tq.linear)));
-                const double dt = (bend == 0 ? -L / d.z : tEnd) / steps;
+                const MesoBend bend(k % 10 == 0 ? 0.0 : (k % 2 == 0 ? -1.0 : 1.0) * std::exp(-9.0 + 7.0 * u(g)), k % 3 == 1 ? -0.5 * u(g) / L : 0.0);
+                const BentEnd end = bentEnd(L, d, bend);
+                const bool endsAtTop = end.atTop;
+                const double tEnd = end.tEnd, straightStep = (-L / d.z) / tq.linear;
+                const int steps = bend.bend == 0 ? tq.linear : std::max(tq.linear, int(std::min(std::ceil(tEnd / straightStep), 4.0 * tq.linear)));
+                const double dt = (bend.bend == 0 ? -L / d.z : tEnd) / steps;
                 longer += steps > tq.linear ? 1 : 0;
-                const double lip = steep + std::abs(d.z) + 2.0 * std::abs(bend) * (tEnd + dt);
+                // (the curve's vertical speed: the depth rate times |F'|)
+                const double lip = steep + end.rate * (std::abs(d.z) + 2.0 * std::abs(bend.bend) * (tEnd + dt));
                 const double slack = 0.5 * lip * dt;
                 const BentWalk w = walkBentRay(field, o, d, bend, slack + walkSlack, slack);
                 glm::dvec3 slab;
                 const MesoHit h = marchMesoBent<double>(maps, tq, o, d, bend, &slab);
-                INFO(function << (method == MesoMethod::Pom ? " POM" : " relief") << " k " << k << " bend " << bend << " hit " << h.hit << " t "
+                INFO(function << (method == MesoMethod::Pom ? " POM" : " relief") << " k " << k << " bend " << bend.bend << " curve " << bend.curve << " hit " << h.hit << " t "
                               << h.t << " n " << h.iterations << " near " << w.tNear << " deep " << w.tDeep << " dt " << dt);
                 bentUp += endsAtTop ? 1 : 0;
-                straight += bend == 0 ? 1 : 0;
+                straight += bend.bend == 0 ? 1 : 0;
                 // Samples: at most `steps` (+1 for POM's first) + binary for relief; a ray that
                 // misses took every step, and nothing else.
                 const int first = method == MesoMethod::Pom ? 1 : 0;
@@ -530,8 +602,8 @@ TEST_CASE("relief mapping and POM along a bent ray find the parabola's first cro
                 ++hits;
                 CHECK(h.t >= w.tNear - dt - 1.0 / 64.0);
                 CHECK(h.t <= w.tDeep + dt + 1.0 / 64.0);
-                // The slab point is the parabola's at t (no chords).
-                const glm::dvec3 p = o + d * h.t - glm::dvec3(0.0, 0.0, bend * h.t * h.t);
+                // The slab point is the curve's at t (no chords).
+                const glm::dvec3 p = kern::dmBentPoint(o, d, bend.bend, bend.curve, h.t);
                 CHECK(glm::length(slab - p) <= 1e-12 * (1.0 + h.t));
             }
             INFO(function << ": " << hits << " hits, " << misses << " misses, " << bentUp << " rays bent back up, " << straight << " straight, "
@@ -553,13 +625,13 @@ TEST_CASE("relief mapping and POM along a bent ray find the parabola's first cro
             const double elev = 0.1 + 1.3 * u(g), az = 6.283185307179586 * u(g);
             const glm::dvec3 d(std::cos(elev) * std::cos(az), std::cos(elev) * std::sin(az), -std::sin(elev));
             const glm::dvec3 o(64.0 * u(g) - 16.0, 64.0 * u(g) - 16.0, L);
-            const double bend = (k % 2 == 0 ? -1.0 : 1.0) * std::exp(-7.0 + 5.0 * u(g));
-            bool endsAtTop = false;
-            const double tEnd = kern::dmBentRayEnd(L, d, bend, endsAtTop);
+            const MesoBend bend((k % 2 == 0 ? -1.0 : 1.0) * std::exp(-7.0 + 5.0 * u(g)), k % 3 == 1 ? -0.5 * u(g) / L : 0.0);
+            const BentEnd end = bentEnd(L, d, bend);
+            const double tEnd = end.tEnd;
             const MesoHit h = marchMesoBent<double>(maps, fine, o, d, bend);
             if (!h.hit) continue;
-            const double lip = steep + std::abs(d.z) + 2.0 * std::abs(bend) * 2.0 * tEnd;
-            INFO(function << " fine k " << k << " bend " << bend << " t " << h.t << " below " << bentBelow(field, o, d, bend, h.t));
+            const double lip = steep + end.rate * (std::abs(d.z) + 2.0 * std::abs(bend.bend) * 2.0 * tEnd);
+            INFO(function << " fine k " << k << " bend " << bend.bend << " t " << h.t << " below " << bentBelow(field, o, d, bend, h.t));
             CHECK(std::abs(bentBelow(field, o, d, bend, h.t)) <= lip * (tEnd / fine.linear) / 16777216.0 + 1e-9);
             ++onSurface;
         }
@@ -610,18 +682,20 @@ TEST_CASE("the distance map along a bent ray converges on the parabola's crossin
         const double elev = 0.1 + 1.45 * u(g), az = 6.283185307179586 * u(g);
         const glm::dvec3 d(std::cos(elev) * std::cos(az), std::cos(elev) * std::sin(az), -std::sin(elev));
         const glm::dvec3 o(64.0 * u(g) - 16.0, 64.0 * u(g) - 16.0, L);
-        const double bend = k % 10 == 0 ? 0.0 : (k % 2 == 0 ? -1.0 : 1.0) * std::exp(-8.0 + 7.0 * u(g));
-        // The crossing of z = h: bend t^2 - d.z t - (L - h) = 0, its smaller positive root.
-        const double c = L - h, disc = d.z * d.z + 4.0 * bend * c;
-        const double tCross = bend == 0 ? c / -d.z : disc >= 0 ? 2.0 * c / (std::sqrt(disc) - d.z) : -1.0;
+        // Every third ray's depth follows a convex curvature (MesoBend::curve, kern::dmBentPoint).
+        const double bend = k % 10 == 0 ? 0.0 : (k % 2 == 0 ? -1.0 : 1.0) * std::exp(-8.0 + 7.0 * u(g)), curve = k % 3 == 1 ? -0.5 * u(g) / L : 0.0;
+        // The crossing of z = h, depth L - h: the quadric's level there c + curve c^2 / 2, and the
+        // smaller positive root of bend t^2 - d.z t = that.
+        const double c = L - h, level = c + 0.5 * curve * c * c, disc = d.z * d.z + 4.0 * bend * level;
+        const double tCross = bend == 0 ? c / -d.z : disc >= 0 ? 2.0 * level / (std::sqrt(disc) - d.z) : -1.0;
         // How fast the point falls at the crossing against the step's bound on its speed: above
         // 1, a step of the distance itself (the straight ray's rule) would pass the plane.
         steep += tCross > 0 && std::abs(d.z - 2.0 * bend * tCross) > 1.0 ? 1 : 0;
         glm::dvec3 slab;
-        const MesoHit r = marchMesoBent<double>(maps, tq, o, d, bend, &slab);
-        INFO("k " << k << " d.z " << d.z << " bend " << bend << ": hit " << r.hit << " t " << r.t << " (" << r.iterations << " it), crossing " << tCross);
-        const glm::dvec3 p = o + d * r.t - glm::dvec3(0.0, 0.0, bend * r.t * r.t);
-        CHECK(glm::length(slab - p) <= 1e-12 * (1.0 + r.t)); // the slab point is the parabola's
+        const MesoHit r = marchMesoBent<double>(maps, tq, o, d, MesoBend(bend, curve), &slab);
+        INFO("k " << k << " d.z " << d.z << " bend " << bend << " curve " << curve << ": hit " << r.hit << " t " << r.t << " (" << r.iterations << " it), crossing " << tCross);
+        const glm::dvec3 p = kern::dmBentPoint(o, d, bend, curve, r.t);
+        CHECK(glm::length(slab - p) <= 1e-12 * (1.0 + r.t)); // the slab point is the curve's
         if (tCross < 0) {
             CHECK_FALSE(r.hit);
             CHECK(slab.z > L); // it left through the top

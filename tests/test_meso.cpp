@@ -808,19 +808,24 @@ TEST_CASE("a bent ray's solid march finds the first crossing of its chords with 
         const double elev = n % 3 == 0 ? 0.02 + 0.15 * U(rng) : 0.1 + 1.3 * U(rng), az = 6.283185307179586 * U(rng);
         const glm::dvec3 d(std::cos(elev) * std::cos(az), std::cos(elev) * std::sin(az), -std::sin(elev));
         const glm::dvec3 o(48.0 * U(rng) - 16.0, 48.0 * U(rng) - 16.0, L);
-        const double bend = n % 10 == 0 ? 0.0 : (n % 2 == 0 ? -1.0 : 1.0) * std::exp(-9.0 + 7.0 * U(rng));
-        // Where the parabola ends: the floor's root, or the top again when bent back up first.
-        const double disc = d.z * d.z + 4.0 * bend * L;
-        double tEnd = bend == 0 ? -L / d.z : disc >= 0 ? 2.0 * L / (std::sqrt(disc) - d.z) : -1.0;
+        // Every third ray's depth follows a convex curvature (MesoBend::curve, kern::dmBentPoint).
+        const double bend = n % 10 == 0 ? 0.0 : (n % 2 == 0 ? -1.0 : 1.0) * std::exp(-9.0 + 7.0 * U(rng)), curve = n % 3 == 1 ? -0.5 * U(rng) / L : 0.0;
+        // Where the curve ends: the floor's root (the quadric's level L + curve L^2 / 2), or the
+        // top again when bent back up first; the chords: as few as keep each within chordError of
+        // it, z'' len^2 / 8 with z'' <= D' (2 |bend| + |curve| D'^2 F'^2).
+        const double level = L + 0.5 * curve * L * L, disc = d.z * d.z + 4.0 * bend * level;
+        double tEnd = bend == 0 ? -L / d.z : disc >= 0 ? 2.0 * level / (std::sqrt(disc) - d.z) : -1.0;
         const bool endsAtTop = bend < 0 && (tEnd < 0 || d.z / bend < tEnd);
         if (endsAtTop) tEnd = d.z / bend;
-        const int chords = bend == 0 ? 1 : std::max(static_cast<int>(std::min(std::ceil(0.5 * tEnd * std::sqrt(std::abs(bend) / chordError)), 64.0)), 1);
+        const double rate = 1.0 / (1.0 + curve * L), slope = std::max(std::abs(d.z), std::abs(2.0 * bend * tEnd - d.z));
+        const double zpp = rate * (2.0 * std::abs(bend) + std::abs(curve) * rate * rate * slope * slope);
+        const int chords = bend == 0 ? 1 : std::max(static_cast<int>(std::min(std::ceil(tEnd * std::sqrt(zpp / (8.0 * chordError))), 64.0)), 1);
         manyChords += chords > 8 ? 1 : 0;
         bool refHit = false;
         double refT = tEnd;
         for (int k = 0; k < chords; ++k) {
             const double ta = tEnd * (double(k) / chords), tb = tEnd * (double(k + 1) / chords);
-            const glm::dvec3 pa = o + d * ta - glm::dvec3(0, 0, bend * ta * ta), pb = o + d * tb - glm::dvec3(0, 0, bend * tb * tb);
+            const glm::dvec3 pa = kern::dmBentPoint(o, d, bend, curve, ta), pb = kern::dmBentPoint(o, d, bend, curve, tb);
             const double len = glm::length(pb - pa);
             const glm::dvec3 u = (pb - pa) / len;
             const bool open = k == chords - 1 && !endsAtTop;
@@ -833,8 +838,8 @@ TEST_CASE("a bent ray's solid march finds the first crossing of its chords with 
             if (!r.hit && r.t <= len) break; // out through the top
         }
         glm::dvec3 slab;
-        const MesoSolidHit h = marchDdmSolidBent<double>(CompressedDdmView{&maps.ddm}, maps.ddm.cones, s, o, d, bend, tq.iterations, 1, &slab);
-        INFO("n " << n << " o " << o.x << "," << o.y << " d " << d.x << "," << d.y << "," << d.z << " bend " << bend << " chords " << chords
+        const MesoSolidHit h = marchDdmSolidBent<double>(CompressedDdmView{&maps.ddm}, maps.ddm.cones, s, o, d, MesoBend(bend, curve), tq.iterations, 1, &slab);
+        INFO("n " << n << " o " << o.x << "," << o.y << " d " << d.x << "," << d.y << "," << d.z << " bend " << bend << " curve " << curve << " chords " << chords
                   << ": march " << h.hit << " t " << h.t << " (" << h.iterations << " it), reference " << refHit << " t " << refT);
         ++rays;
         REQUIRE(h.hit == refHit);
@@ -847,9 +852,8 @@ TEST_CASE("a bent ray's solid march finds the first crossing of its chords with 
         }
         ++hits;
         CHECK(h.t == Approx(refT).margin(1e-9)); // both in double, the same chords
-        // The slab point is on the chord at t, within the chord error of the parabola.
-        const glm::dvec3 onParabola = o + d * h.t - glm::dvec3(0, 0, bend * h.t * h.t);
-        CHECK(glm::length(slab - onParabola) <= chordError + 1e-9);
+        // The slab point is on the chord at t, within the chord error of the curve.
+        CHECK(glm::length(slab - kern::dmBentPoint(o, d, bend, curve, h.t)) <= chordError + 1e-9);
         if (h.triangle >= 0) {
             ++beads;
             // On its triangle (a copy a whole number of tiles away).
@@ -861,7 +865,7 @@ TEST_CASE("a bent ray's solid march finds the first crossing of its chords with 
         }
         // In float (the GPU's arithmetic): the same answer to 1e-5 max(t, 16) (as the straight
         // solid march above: the chords' ends and directions rounded to float as well).
-        const MesoHit f = marchMesoBent<float>(maps, tq, o, d, bend);
+        const MesoHit f = marchMesoBent<float>(maps, tq, o, d, MesoBend(bend, curve));
         agreeFloat += f.hit && std::abs(f.t - h.t) <= 1e-5 * std::max(h.t, 16.0) ? 1 : 0;
     }
     INFO(rays << " rays: " << hits << " hits (" << beads << " on a bead), " << misses << " misses (" << bentUp << " bent back up), "

@@ -51,7 +51,7 @@ MesoSolid mesoParitySolid() {
 namespace {
 
 struct GpuRay {
-    glm::vec4 o, d;
+    glm::vec4 o, d; // bent rays: the bend in o.w, the curve in d.w
 };
 static_assert(sizeof(GpuRay) == 32);
 
@@ -155,8 +155,11 @@ std::vector<GpuRay> bentRays(const MesoHeightField& f, std::size_t n, RayGen& g)
         const glm::vec3 o(g.uniform(-W, 2.0 * W), g.uniform(-H, 2.0 * H), float(f.layers));
         const glm::vec3 d = g.direction(-(i % 3 == 0 ? g.uniform(0.01, 0.1) : g.uniform(0.1, 1.0)));
         const float bend = i % 8 == 0 ? 0.0f : (i % 2 == 0 ? -1.0f : 1.0f) * std::exp(g.uniform(-9.0, -1.0));
+        // Every other ray's depth follows a convex base's curvature (MesoBend::curve), up to the
+        // renderer's limit (half the slab's depth: kern::dmShellLimit).
+        const float curve = i % 2 == 1 ? -g.uniform(0.0, 0.5) / static_cast<float>(f.layers) : 0.0f;
         r.o = glm::vec4(o, bend);
-        r.d = glm::vec4(d, 0.0f);
+        r.d = glm::vec4(d, curve);
         rays.push_back(r);
     }
     return rays;
@@ -367,13 +370,14 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
                 int triangle = -1;
                 if (isSolid) {
                     const MesoSolidHit h = row->rays == 3 ? marchDdmSolidBent<float>(CompressedDdmView{&maps.ddm}, maps.ddm.cones, maps.solid, glm::dvec3(o),
-                                                                                     glm::dvec3(d), double(rays[i].o.w), tq.iterations, tq.exitRule)
+                                                                                     glm::dvec3(d), MesoBend(rays[i].o.w, rays[i].d.w), tq.iterations,
+                                                                                     tq.exitRule)
                                                           : marchDdmSolid<float>(CompressedDdmView{&maps.ddm}, maps.ddm.cones, maps.solid, glm::dvec3(o),
                                                                                  glm::dvec3(d), tq.iterations, tq.exitRule);
                     cpu = h;
                     triangle = h.triangle;
                 } else if (row->rays == 3) {
-                    cpu = marchMesoBent<float>(maps, tq, glm::dvec3(o), glm::dvec3(d), double(rays[i].o.w));
+                    cpu = marchMesoBent<float>(maps, tq, glm::dvec3(o), glm::dvec3(d), MesoBend(rays[i].o.w, rays[i].d.w));
                 } else {
                     cpu = marchMeso<float>(maps, tq, glm::dvec3(o), glm::dvec3(d));
                 }
@@ -410,7 +414,7 @@ std::vector<KernelResult> runMeso(vulkan::Context& ctx, const Options& opt) {
                 if (err > res.maxUlp || (!same && res.worstInput.empty())) {
                     res.maxUlp = err;
                     std::ostringstream s;
-                    s << std::setprecision(9) << "o=" << vec(o) << " d=" << vec(d) << " bend " << rays[i].o.w << ": cpu hit " << cpu.hit << " t " << tc << " n "
+                    s << std::setprecision(9) << "o=" << vec(o) << " d=" << vec(d) << " bend " << rays[i].o.w << " curve " << rays[i].d.w << ": cpu hit " << cpu.hit << " t " << tc << " n "
                       << cpu.iterations << " triangle " << triangle << ", gpu hit " << gpu[i].x << " t " << tg << " n " << gpu[i].z << " triangle "
                       << static_cast<int>(gpu[i].w) - 1 << std::hexfloat << " (" << tc << " vs " << tg << ")";
                     res.worstInput = s.str();

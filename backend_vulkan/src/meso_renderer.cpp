@@ -337,7 +337,7 @@ struct MesoRenderer::Impl {
         const glm::vec3 bg(options.background);
         clear[0] = {{bg.x, bg.y, bg.z, 1.0f}};
         clear[1] = {{0.0f, 0.0f, 0.0f, -1.0f}};
-        clear[2] = {{0.0f, 0.0f, 0.0f, 0.0f}};
+        clear[2] = {{0.0f, 0.0f, 0.0f, 1.0f}}; // w 1: not covered (meso.frag writes the curve there, <= 0)
         clear[3] = {{0.0f, 0.0f, 0.0f, 0.0f}};
         clear[4].uint32[0] = clear[4].uint32[1] = clear[4].uint32[2] = clear[4].uint32[3] = 0;
         targets->beginRendering(cmd, clear);
@@ -442,8 +442,9 @@ MesoImage MesoRenderer::render() {
     out.rayDir.resize(pixels);
     out.part.resize(pixels);
     out.bend.resize(pixels);
+    out.curve.resize(pixels);
     for (std::size_t i = 0; i < pixels; ++i) {
-        out.covered[i] = origin[i].w > 0.5f ? 1 : 0;
+        out.covered[i] = origin[i].w <= 0.5f ? 1 : 0;
         out.iterations[i] = counts[i].x;
         out.shadowIterations[i] = counts[i].y;
         out.shadowed[i] = (counts[i].z & 1u) ? 1 : 0;
@@ -453,6 +454,7 @@ MesoImage MesoRenderer::render() {
         out.rayDir[i] = glm::vec3(dir[i]);
         out.part[i] = static_cast<std::uint8_t>(std::min(counts[i].z >> 1, 255u));
         out.bend[i] = dir[i].w;
+        out.curve[i] = out.covered[i] ? origin[i].w : 0.0f;
     }
     return out;
 }

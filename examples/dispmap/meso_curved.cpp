@@ -169,14 +169,14 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
                 if (!cutHit && exactHits) ++cell.cutFalseMisses;
                 // With bent rays: the same DDM march along the parabola of the same quadric.
                 glm::dvec3 slab(0.0);
-                const MesoHit bent = marchMesoBent<double>(maps, tq, o, d, kern::dmShellBend(d, shape, vpu), &slab);
+                const MesoBend bend(kern::dmShellBend(d, shape, vpu), kern::dmShellVoxels(shape, vpu).w);
+                const MesoHit bent = marchMesoBent<double>(maps, tq, o, d, bend, &slab);
                 if (bent.hit && !exactHits) ++cell.bentFalseHits;
                 if (!bent.hit && exactHits) ++cell.bentFalseMisses;
                 if (planar.hit && exactHits) {
                     cell.texelError.push_back(glm::length(planar.point(o, d) - exact));
                 }
                 if (bent.hit && exactHits) cell.bentError.push_back(glm::length(slab - exact));
-                const double bend = kern::dmShellBend(d, shape, vpu);
                 for (auto [tqh, hc] : {std::pair{&relief, &reliefCell}, std::pair{&pom, &pomCell}, std::pair{&distance, &distanceCell}}) {
                     const MesoHit hp = marchMeso<double>(maps, *tqh, o, d);
                     glm::dvec3 hs(0.0);

@@ -11,11 +11,11 @@
 #define rvec4 vec4
 #define rmat3 mat3
 #line 39 "include/dispmap/kernels/meso_march.h"
-// Where the parabola from the top ends: on the floor (dmBentFloor), or, bent up (bend < 0,
-// convex), back at the top at t = d.z / bend when that comes first (endsAtTop: the ray has
-// left the shell there).
-DM_TFUNC real dmBentRayEnd(real L, rvec3 d, real bend, DM_OUT(bool) endsAtTop) {
-    real tEnd = dmBentFloor(rvec3(real(0), real(0), L), d, bend, real(-1));
+// Where the bent ray from the top (dmBentPoint) ends: on the floor (dmBentFloor), or, bent up
+// (bend < 0, convex), back at the top (F = 0) at t = d.z / bend when that comes first
+// (endsAtTop: the ray has left the shell there).
+DM_TFUNC real dmBentRayEnd(real L, rvec3 d, real bend, real curve, DM_OUT(bool) endsAtTop) {
+    real tEnd = dmBentFloor(rvec3(real(0), real(0), L), d, bend, curve, real(-1));
     endsAtTop = false;
     if (bend < real(0)) {
         real tTop = d.z / bend;
@@ -25,13 +25,13 @@ DM_TFUNC real dmBentRayEnd(real L, rvec3 d, real bend, DM_OUT(bool) endsAtTop) {
     return tEnd;
 }
 
-// Donnelly's sphere tracing along the curve dmBentPoint(o, d, bend, t) (bend 0: the straight
-// ray): `iterations` steps of the trilinearly read distance, or fewer when it falls to eps or
+// Donnelly's sphere tracing along the curve dmBentPoint(o, d, bend, curve, t) (bend 0: the
+// straight ray): `iterations` steps of the trilinearly read distance, or fewer when it falls to eps or
 // below (dmSphereTraceStep: each step moves the point along the curve no farther than the
 // distance read). The hit is where the last step ends (tHit its parameter, pHit the point); a
 // curve that rose through the top is a miss.
-DM_TFUNC bool dmMesoMarchDistanceBent(DmMesoMaps m, rvec3 o, rvec3 d, real bend, int iterations, real eps, DM_OUT(real) tHit,
-                                      DM_OUT(rvec3) pHit, DM_OUT(int) count) {
+DM_TFUNC bool dmMesoMarchDistanceBent(DmMesoMaps m, rvec3 o, rvec3 d, real bend, real curve, int iterations, real eps,
+                                      DM_OUT(real) tHit, DM_OUT(rvec3) pHit, DM_OUT(int) count) {
     count = 0;
     real t = real(0);
     rvec3 p = o;
@@ -45,8 +45,8 @@ DM_TFUNC bool dmMesoMarchDistanceBent(DmMesoMaps m, rvec3 o, rvec3 d, real bend,
                          real(dmMesoFetchDistance(m, c.x + 1, c.y + 1, c.z + 1)),
                          real(dmMesoFetchDistance(m, c.x, c.y + 1, c.z + 1)));
         count = count + 1;
-        status = dmSphereTraceStep(t, dmTrilerp(lo, hi, f), eps, o, d, bend, m.layers);
-        p = dmBentPoint(o, d, bend, t);
+        status = dmSphereTraceStep(t, dmTrilerp(lo, hi, f), eps, o, d, bend, curve, m.layers);
+        p = dmBentPoint(o, d, bend, curve, t);
     }
     tHit = t;
     pHit = p;
@@ -57,7 +57,7 @@ DM_TFUNC bool dmMesoMarchDistanceBent(DmMesoMaps m, rvec3 o, rvec3 d, real bend,
 DM_TFUNC bool dmMesoMarchDistance(DmMesoMaps m, rvec3 o, rvec3 d, int iterations, real eps, DM_OUT(real) tHit,
                                   DM_OUT(int) count) {
     rvec3 p;
-    return dmMesoMarchDistanceBent(m, o, d, real(0), iterations, eps, tHit, p, count);
+    return dmMesoMarchDistanceBent(m, o, d, real(0), real(0), iterations, eps, tHit, p, count);
 }
 
 // Algorithm 3.1 (sphere tracing a conservative DDM, quadric intersection 3.2, voxel walls 3.3)
@@ -178,24 +178,26 @@ DM_TFUNC bool dmMesoMarchDdmSolid(DmMesoMaps m, rvec3 o, rvec3 d, int coneM, int
 // The DDM march along a ray bent by the base's curvature (Donnelly's locally planar model with
 // the quadric of the shell's top, kern::dmShellBend): in the slab's own coordinates, where the
 // top lies at z = L everywhere, the straight world ray from the entry o (o.z = L, d going down,
-// unit) is the parabola P(t) = o + t d - bend t^2 z. It ends on the floor (z = 0) or, bent up
-// (bend < 0, convex), back at the top, where it has left the shell: a miss, the silhouette of
-// the detail itself. It is marched as chords of equal parameter length, each a straight
-// dmMesoMarchDdm (a height field's, with its quadrics) or, with `solid`, dmMesoMarchDdmSolid
-// (a solid's triangles) that stops past the chord's end, as few as keep every chord within
-// `chordError` voxels of the parabola (|bend| len^2 / 4 for a chord of parameter length len), at
-// most 64; the last chord goes on straight when the parabola ends on the floor, and ends at the
+// unit) is the curve dmBentPoint(o, d, bend, curve, t) (with curve 0 the parabola o + t d -
+// bend t^2 z). It ends on the floor (z = 0) or, bent up (bend < 0, convex), back at the top,
+// where it has left the shell: a miss, the silhouette of the detail itself. It is marched as
+// chords of equal parameter length, each a straight dmMesoMarchDdm (a height field's, with its
+// quadrics) or, with `solid`, dmMesoMarchDdmSolid (a solid's triangles) that stops past the
+// chord's end, as few as keep every chord within `chordError` voxels of the curve (z'' len^2 /
+// 8 for a chord of parameter length len, z'' <= D' 2 |bend| + |c| D'^3 F'^2 with D' =
+// dmBentDepthRate and F' = 2 bend t - d.z at its largest; with curve 0, |bend| len^2 / 4), at
+// most 64; the last chord goes on straight when the curve ends on the floor, and ends at the
 // top when it comes back there (a miss). A hit on a chord is the hit; a chord that leaves
 // through the top misses. Writes the hit's parameter on the straight ray (tHit: the world point
 // is the straight ray's there) and its point in the slab's coordinates (pHit: where the detail
 // is read), the iterations of all chords together (at most maxIterations; running out is a
 // hit, as dmMesoMarchDdm) and, for a solid, the triangle hit and its barycentric uv (-1 and 0
 // for the floor, a miss or a height field). bend == 0 is the straight march itself.
-DM_TFUNC bool dmMesoMarchDdmBent(DmMesoMaps m, rvec3 o, rvec3 d, real bend, int coneM, int coneN, int maxIterations, bool quadrics,
-                                 bool solid, int exitRule, real tol, real chordError, DM_OUT(real) tHit, DM_OUT(rvec3) pHit,
-                                 DM_OUT(int) count, DM_OUT(int) triangle, DM_OUT(rvec2) uv) {
+DM_TFUNC bool dmMesoMarchDdmBent(DmMesoMaps m, rvec3 o, rvec3 d, real bend, real curve, int coneM, int coneN, int maxIterations,
+                                 bool quadrics, bool solid, int exitRule, real tol, real chordError, DM_OUT(real) tHit,
+                                 DM_OUT(rvec3) pHit, DM_OUT(int) count, DM_OUT(int) triangle, DM_OUT(rvec2) uv) {
     bool endsAtTop; // bent back up to the top before the floor: out of the shell
-    real tEnd = dmBentRayEnd(real(m.layers), d, bend, endsAtTop);
+    real tEnd = dmBentRayEnd(real(m.layers), d, bend, curve, endsAtTop);
     triangle = -1;
     uv = rvec2(real(0));
     if (bend == real(0)) {
@@ -204,15 +206,18 @@ DM_TFUNC bool dmMesoMarchDdmBent(DmMesoMaps m, rvec3 o, rvec3 d, real bend, int 
         pHit = o + d * tHit;
         return straight;
     }
-    int chords = max(int(min(ceil(real(0.5) * tEnd * sqrt(abs(bend) / chordError)), real(64))), 1);
+    real rate = dmBentDepthRate(curve, real(m.layers));
+    real slope = max(abs(d.z), abs(real(2) * bend * tEnd - d.z));
+    real zpp = rate * (real(2) * abs(bend) + abs(curve) * (rate * rate) * (slope * slope));
+    int chords = max(int(min(ceil(tEnd * sqrt(zpp / (real(8) * chordError))), real(64))), 1);
     count = 0;
     tHit = real(0);
     pHit = o;
     for (int k = 0; k < chords; ++k) {
         real ta = tEnd * (real(k) / real(chords));
         real tb = tEnd * (real(k + 1) / real(chords));
-        rvec3 pa = dmBentPoint(o, d, bend, ta);
-        rvec3 pb = dmBentPoint(o, d, bend, tb);
+        rvec3 pa = dmBentPoint(o, d, bend, curve, ta);
+        rvec3 pb = dmBentPoint(o, d, bend, curve, tb);
         rvec3 u = pb - pa;
         real len = sqrt(dmDot3(u, u));
         if (!(len > real(0))) {
@@ -246,7 +251,7 @@ DM_TFUNC bool dmMesoMarchDdmBent(DmMesoMaps m, rvec3 o, rvec3 d, real bend, int 
     }
     // Only a ray bent back to the top gets here: it has left the shell.
     tHit = tEnd;
-    pHit = dmBentPoint(o, d, bend, tEnd);
+    pHit = dmBentPoint(o, d, bend, curve, tEnd);
     triangle = -1;
     uv = rvec2(real(0));
     return false;
@@ -260,25 +265,25 @@ DM_TFUNC real dmMesoAboveAt(DmMesoMaps m, rvec3 p, DM_INOUT(int) count) {
     return dmHeightAbove(p, rvec4(dmMesoFetchCell(m, c.x, c.y)), f);
 }
 
-// The linear search of relief mapping and POM along the curve dmBentPoint(o, d, bend, t) (bend
-// 0: the straight ray o + t d): `steps` equal steps of t from 0 to tEnd until a sample is at or
+// The linear search of relief mapping and POM along the curve dmBentPoint(o, d, bend, curve, t)
+// (bend 0: the straight ray o + t d): `steps` equal steps of t from 0 to tEnd until a sample is at or
 // below the surface, then `binary` bisections of the last step (the hit the final bracket's
 // midpoint) or, with binary < 0, POM's crossing of the segment between the last two samples. A
 // curve that ends at the top (endsAtTop: bent back up, out of the shell) with no sample at or
 // below the surface is a miss at tEnd.
-DM_TFUNC bool dmMesoHeightSearch(DmMesoMaps m, rvec3 o, rvec3 d, real bend, real tEnd, int steps, bool endsAtTop, int binary,
-                                 DM_OUT(real) tHit, DM_OUT(int) count) {
+DM_TFUNC bool dmMesoHeightSearch(DmMesoMaps m, rvec3 o, rvec3 d, real bend, real curve, real tEnd, int steps, bool endsAtTop,
+                                 int binary, DM_OUT(real) tHit, DM_OUT(int) count) {
     count = 0;
     real dt = tEnd / real(steps);
     rvec2 bracket = rvec2(real(0), dt);
     real abovePrev = real(0);
     if (binary < 0) {
-        abovePrev = dmMesoAboveAt(m, dmBentPoint(o, d, bend, real(0)), count);
+        abovePrev = dmMesoAboveAt(m, dmBentPoint(o, d, bend, curve, real(0)), count);
     }
     real aboveCur = real(0);
     bool crossed = false;
     for (int i = 0; i < steps; ++i) {
-        aboveCur = dmMesoAboveAt(m, dmBentPoint(o, d, bend, bracket.y), count);
+        aboveCur = dmMesoAboveAt(m, dmBentPoint(o, d, bend, curve, bracket.y), count);
         real keep = aboveCur;
         if (dmLinearSearchStep(bracket, dt, aboveCur)) {
             crossed = true;
@@ -296,7 +301,7 @@ DM_TFUNC bool dmMesoHeightSearch(DmMesoMaps m, rvec3 o, rvec3 d, real bend, real
     }
     for (int j = 0; j < binary; ++j) {
         real mid = real(0.5) * (bracket.x + bracket.y);
-        bracket = dmBisectStep(bracket, dmMesoAboveAt(m, dmBentPoint(o, d, bend, mid), count));
+        bracket = dmBisectStep(bracket, dmMesoAboveAt(m, dmBentPoint(o, d, bend, curve, mid), count));
     }
     tHit = real(0.5) * (bracket.x + bracket.y);
     return true;
@@ -309,35 +314,35 @@ DM_TFUNC bool dmMesoHeightSearch(DmMesoMaps m, rvec3 o, rvec3 d, real bend, real
 // rays only (d.z < 0) and linear >= 1: the caller checks.
 DM_TFUNC bool dmMesoMarchHeight(DmMesoMaps m, rvec3 o, rvec3 d, int linear, int binary, DM_OUT(real) tHit,
                                 DM_OUT(int) count) {
-    return dmMesoHeightSearch(m, o, d, real(0), dmPlaneHit(o, d, real(0)), linear, false, binary, tHit, count);
+    return dmMesoHeightSearch(m, o, d, real(0), real(0), dmPlaneHit(o, d, real(0)), linear, false, binary, tHit, count);
 }
 
 // Relief mapping and POM (dmMesoMarchHeight) along a ray bent by the base's curvature: the
-// parabola dmBentPoint from the entry o at the top, equal steps of its parameter from the top to
-// where it ends (dmBentRayEnd: the floor, or the top again when a convex base bends it back up),
-// then the bisections or POM's crossing on the same parabola (dmMesoHeightSearch). The steps are
-// `linear`, or more where the parabola is longer than the straight ray to the floor: never
+// curve dmBentPoint (with curve 0 a parabola) from the entry o at the top, equal steps of its
+// parameter from the top to where it ends (dmBentRayEnd: the floor, or the top again when a convex base bends it back up),
+// then the bisections or POM's crossing on the same curve (dmMesoHeightSearch). The steps are
+// `linear`, or more where the curve is longer than the straight ray to the floor: never
 // longer than the straight ray's steps (so thin walls are stepped over no more often than by the
 // planar march), at most 4 linear (the most there can be: a convex parabola that just misses the
-// floor, d.z^2 = 4 |bend| L, is 4 times as long as the straight ray). A ray bent back up with no
+// floor, d.z^2 = 4 |bend| F at the floor's F <= L, is 4 times as long as the straight ray). A ray bent back up with no
 // sample at or below the surface has left the shell: a miss (tHit, pHit its end). Writes the
 // hit's parameter on the straight ray (tHit: the world point is the straight ray's there) and
 // its point in the slab's coordinates (pHit: where the detail is read). bend == 0 is
 // dmMesoMarchHeight itself. View rays only (o.z = L, d.z < 0) and linear >= 1: the caller
 // checks.
-DM_TFUNC bool dmMesoMarchHeightBent(DmMesoMaps m, rvec3 o, rvec3 d, real bend, int linear, int binary, DM_OUT(real) tHit,
-                                    DM_OUT(rvec3) pHit, DM_OUT(int) count) {
+DM_TFUNC bool dmMesoMarchHeightBent(DmMesoMaps m, rvec3 o, rvec3 d, real bend, real curve, int linear, int binary,
+                                    DM_OUT(real) tHit, DM_OUT(rvec3) pHit, DM_OUT(int) count) {
     if (bend == real(0)) {
         bool straight = dmMesoMarchHeight(m, o, d, linear, binary, tHit, count);
         pHit = o + d * tHit;
         return straight;
     }
     bool endsAtTop;
-    real tEnd = dmBentRayEnd(real(m.layers), d, bend, endsAtTop);
+    real tEnd = dmBentRayEnd(real(m.layers), d, bend, curve, endsAtTop);
     real straightStep = dmPlaneHit(o, d, real(0)) / real(linear);
     int steps = max(linear, int(min(ceil(tEnd / straightStep), real(4 * linear))));
-    bool hit = dmMesoHeightSearch(m, o, d, bend, tEnd, steps, endsAtTop, binary, tHit, count);
-    pHit = dmBentPoint(o, d, bend, tHit);
+    bool hit = dmMesoHeightSearch(m, o, d, bend, curve, tEnd, steps, endsAtTop, binary, tHit, count);
+    pHit = dmBentPoint(o, d, bend, curve, tHit);
     return hit;
 }
 

@@ -145,11 +145,12 @@ DmMesoHit dmMarchDistanceMap(DmMesoSize s, vec3 o, vec3 d, int iterations, float
     r.hit = dmMesoMarchDistance(s, o, d, iterations, eps, r.t, r.iterations);
     return r;
 }
-// The same along the ray bent by the base's curvature (bend: dmShellBend); p: the hit in the
-// slab's coordinates (t is the straight ray's).
-DmMesoHit dmMarchDistanceMapBent(DmMesoSize s, vec3 o, vec3 d, float bend, int iterations, float eps, out vec3 p) {
+// The same along the ray bent by the base's curvature (bend: dmShellBend; curve: the most convex
+// curvature in voxels, dmShellVoxels' w); p: the hit in the slab's coordinates (t is the
+// straight ray's).
+DmMesoHit dmMarchDistanceMapBent(DmMesoSize s, vec3 o, vec3 d, float bend, float curve, int iterations, float eps, out vec3 p) {
     DmMesoHit r;
-    r.hit = dmMesoMarchDistanceBent(s, o, d, bend, iterations, eps, r.t, p, r.iterations);
+    r.hit = dmMesoMarchDistanceBent(s, o, d, bend, curve, iterations, eps, r.t, p, r.iterations);
     return r;
 }
 DmMesoHit dmMarchDdm(DmMesoSize s, vec3 o, vec3 d, int maxIterations, bool quadrics, int exitRule) {
@@ -163,13 +164,13 @@ struct DmMesoSolidHit {
     int triangle;
     vec2 uv;
 };
-// The DDM march along the ray bent by the base's curvature (bend: dmShellBend), a height
+// The DDM march along the ray bent by the base's curvature (bend, curve: as above), a height
 // field's (quadrics or not) or with `solid` a solid's; p: the hit in the slab's coordinates (t
 // is the straight ray's); triangle and uv: the solid's triangle hit (-1 otherwise).
-DmMesoSolidHit dmMarchDdmBent(DmMesoSize s, vec3 o, vec3 d, float bend, int maxIterations, bool quadrics, bool solid, int exitRule,
-                              float chordError, out vec3 p) {
+DmMesoSolidHit dmMarchDdmBent(DmMesoSize s, vec3 o, vec3 d, float bend, float curve, int maxIterations, bool quadrics, bool solid,
+                              int exitRule, float chordError, out vec3 p) {
     DmMesoSolidHit r;
-    r.h.hit = dmMesoMarchDdmBent(s, o, d, bend, s.coneM, s.coneN, maxIterations, quadrics, solid, exitRule, s.tol, chordError, r.h.t, p,
+    r.h.hit = dmMesoMarchDdmBent(s, o, d, bend, curve, s.coneM, s.coneN, maxIterations, quadrics, solid, exitRule, s.tol, chordError, r.h.t, p,
                                  r.h.iterations, r.triangle, r.uv);
     return r;
 }
@@ -196,11 +197,11 @@ DmMesoHit dmMarchHeightSearch(DmMesoSize s, vec3 o, vec3 d, int linear, int bina
     r.hit = dmMesoMarchHeight(s, o, d, linear, binary, r.t, r.iterations);
     return r;
 }
-// The same along the ray bent by the base's curvature (bend: dmShellBend); p: the hit in the
-// slab's coordinates (t is the straight ray's).
-DmMesoHit dmMarchHeightSearchBent(DmMesoSize s, vec3 o, vec3 d, float bend, int linear, int binary, out vec3 p) {
+// The same along the ray bent by the base's curvature (bend, curve: as above); p: the hit in
+// the slab's coordinates (t is the straight ray's).
+DmMesoHit dmMarchHeightSearchBent(DmMesoSize s, vec3 o, vec3 d, float bend, float curve, int linear, int binary, out vec3 p) {
     DmMesoHit r;
-    r.hit = dmMesoMarchHeightBent(s, o, d, bend, linear, binary, r.t, p, r.iterations);
+    r.hit = dmMesoMarchHeightBent(s, o, d, bend, curve, linear, binary, r.t, p, r.iterations);
     return r;
 }
 

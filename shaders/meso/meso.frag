@@ -50,7 +50,7 @@ layout(location = 4) in vec3 frameN;
 layout(location = 5) in vec4 frameShape;
 layout(location = 0) out vec4 outColor;
 layout(location = 1) out vec4 outHit;    // voxel-space hit point, t (w = -1: the ray missed)
-layout(location = 2) out vec4 outOrigin; // the view ray in voxel space: o, 1
+layout(location = 2) out vec4 outOrigin; // the view ray in voxel space: o, the curve of its bend (kBentRays; else 0)
 layout(location = 3) out vec4 outDir;    // d, the bend (kBentRays; else 0)
 layout(location = 4) out uvec4 outCounts; // view iterations, shadow iterations, shadowed + 2 x the part, hit (1; 2: a hit past the shell's exit, a miss)
 
@@ -88,6 +88,8 @@ void main() {
     float bend = 0.0;           // the view ray's bend (kBentRays)
     // The base's curvature where the slab reads it, limited to half its depth (dmShellLimit; 0.5: kShellCurvatureLimit).
     vec4 shell = dmShellLimit(frameShape, vpu, float(s.layers), 0.5);
+    // The most convex curvature in voxels: how the bent ray's depth follows the quadric (dmBentPoint).
+    float curve = kBentRays && kBase != 0 ? dmShellVoxels(shell, vpu).w : 0.0;
     vec3 bentPoint = vec3(0.0); // its hit in the slab's coordinates
     if (kBase != 0 && !(d.z < 0.0)) {
         // Seen from below the base (a back face): the ray leaves through the top at once.
@@ -96,12 +98,12 @@ void main() {
         h.iterations = 0;
     } else if (kMethod == 0 && kBentRays && kBase != 0) {
         bend = dmShellBend(d, shell, vpu);
-        h = dmMarchDistanceMapBent(s, o, d, bend, kIterations, kEps, bentPoint);
+        h = dmMarchDistanceMapBent(s, o, d, bend, curve, kIterations, kEps, bentPoint);
     } else if (kMethod == 0) {
         h = dmMarchDistanceMap(s, o, d, kIterations, kEps);
     } else if (kMethod == 1 && kBentRays && kBase != 0) {
         bend = dmShellBend(d, shell, vpu);
-        DmMesoSolidHit sh = dmMarchDdmBent(s, o, d, bend, kIterations, kQuadrics, kSolid, kExitRule, 0.05, bentPoint); // 0.05: kMesoChordError
+        DmMesoSolidHit sh = dmMarchDdmBent(s, o, d, bend, curve, kIterations, kQuadrics, kSolid, kExitRule, 0.05, bentPoint); // 0.05: kMesoChordError
         h = sh.h;
         entry = sh.triangle;
         bary = sh.uv;
@@ -114,11 +116,11 @@ void main() {
         h = dmMarchDdm(s, o, d, kIterations, kQuadrics, kExitRule);
     } else if (kBentRays && kBase != 0) {
         bend = dmShellBend(d, shell, vpu);
-        h = dmMarchHeightSearchBent(s, o, d, bend, kLinear, kMethod == 3 ? -1 : kBinary, bentPoint);
+        h = dmMarchHeightSearchBent(s, o, d, bend, curve, kLinear, kMethod == 3 ? -1 : kBinary, bentPoint);
     } else {
         h = dmMarchHeightSearch(s, o, d, kLinear, kMethod == 3 ? -1 : kBinary);
     }
-    outOrigin = vec4(o, 1.0);
+    outOrigin = vec4(o, curve); // w <= 0 (the clear's 1: not covered)
     outDir = vec4(d, bend);
     uint part = uint(params.dims2.z) << 1u; // which of the renderer's mesostructures drew the pixel
     // The silhouette: a hit beyond the point where the ray has left the curved shell through
@@ -150,13 +152,13 @@ void main() {
     vec3 so; // the shadow ray's origin
     if (kSolid) {
         // The triangle's corner normals at the hit, turned to the ray's side (the floor's: up;
-        // a bent ray's side is its direction there, the parabola's tangent d - 2 bend t z);
+        // a bent ray's side is its direction there, dmBentTangent);
         // the shadow ray leaves along the face's own normal.
         vec3 nv = vec3(0.0, 0.0, 1.0);
         vec3 gv = nv;
         if (entry >= 0) {
             nv = dmMesoSolidNormal(entry, bary);
-            gv = dmMesoSolidFacing(s, entry, kBentRays ? d - vec3(0.0, 0.0, 2.0 * bend * h.t) : d, nv);
+            gv = dmMesoSolidFacing(s, entry, kBentRays ? dmBentTangent(d, bend, curve, h.t) : d, nv);
         }
         n = dmFrameVoxelNormal(nv, axisS, axisT, axisN, vpu);
         so = p + gv * params.tol.y;

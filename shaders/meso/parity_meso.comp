@@ -34,7 +34,7 @@ layout(push_constant) uniform Push {
 
 struct Ray {
     vec4 o; // xyz; w: the bend (method 5)
-    vec4 d; // xyz, unit
+    vec4 d; // xyz, unit; w: the curve (methods 5 to 8)
 };
 layout(std430, binding = 5) readonly buffer Rays { Ray rays[]; };
 layout(std430, binding = 6) writeonly buffer Results { uvec4 results[]; };
@@ -65,15 +65,15 @@ void main() {
         entry = sh.triangle;
     } else if (pc.method == 5 || pc.method == 7) {
         vec3 p;
-        DmMesoSolidHit sh = dmMarchDdmBent(s, o, d, rays[i].o.w, pc.iterations, pc.quadrics != 0, pc.method == 7, pc.exitRule, pc.eps, p);
+        DmMesoSolidHit sh = dmMarchDdmBent(s, o, d, rays[i].o.w, rays[i].d.w, pc.iterations, pc.quadrics != 0, pc.method == 7, pc.exitRule, pc.eps, p);
         h = sh.h;
         entry = sh.triangle;
     } else if (pc.method == 8) {
         vec3 p;
-        h = dmMarchDistanceMapBent(s, o, d, rays[i].o.w, pc.iterations, pc.eps, p);
+        h = dmMarchDistanceMapBent(s, o, d, rays[i].o.w, rays[i].d.w, pc.iterations, pc.eps, p);
     } else if (pc.method == 6) {
         vec3 p;
-        h = dmMarchHeightSearchBent(s, o, d, rays[i].o.w, pc.linear, pc.binary, p);
+        h = dmMarchHeightSearchBent(s, o, d, rays[i].o.w, rays[i].d.w, pc.linear, pc.binary, p);
     } else if (pc.method == 0) {
         h = dmMarchDistanceMap(s, o, d, pc.iterations, pc.eps);
     } else if (pc.method == 1) {

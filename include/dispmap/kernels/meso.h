@@ -397,47 +397,81 @@ DM_TFUNC real dmTrilerp(rvec4 lo, rvec4 hi, rvec3 f) {
     return dmBilerp(lo, xy) * (real(1) - f.z) + dmBilerp(hi, xy) * f.z;
 }
 
-// A ray bent by the base's curvature, in the slab's own coordinates (the top at z = L): the
-// parabola P(t) = o + t d - bend t^2 z from the entry o (o.z = L, d going down, unit), t the
-// parameter of the straight world ray (kern::dmShellBend gives the bend; bend 0 is the straight
-// ray itself, to the bit).
-DM_TFUNC rvec3 dmBentPoint(rvec3 o, rvec3 d, real bend, real t) {
-    return o + d * t - rvec3(real(0), real(0), bend * (t * t));
+// A ray bent by the base's curvature, in the slab's own coordinates (the top at z = L). Around
+// the entry o (o.z = L) the shell is modelled by the quadric F = (1/2) e^T K e + (1/2) c z'^2 -
+// z' (dmShellExit, meso_shade.h; c <= 0 the most convex principal curvature in voxels), which
+// along the straight world ray from o is F(t) = bend t^2 - d.z t (dmShellBend gives the bend).
+// On a ball or a cylinder F is a function of the depth D below the top alone, F = D + c D^2 / 2
+// (so D = 2 F / (1 + sqrt(1 + 2 c F))), exactly at every depth; elsewhere it is the model. The
+// ray's point in the slab is then P(t) = (o.x + d.x t, o.y + d.y t, L - D(F(t))): with c = 0
+// the parabola o + t d - bend t^2 z, to the bit; bend 0 is the straight ray (the marchers take
+// it straight whatever c is). t is the straight world ray's parameter, d unit and going down.
+DM_TFUNC rvec3 dmBentPoint(rvec3 o, rvec3 d, real bend, real curve, real t) {
+    rvec3 p = o + d * t - rvec3(real(0), real(0), bend * (t * t));
+    // F - D(F) = 2 c F^2 / (1 + sqrt(1 + 2 c F))^2: no cancellation, 0 for c = 0 or bend 0.
+    real c = bend == real(0) ? real(0) : curve;
+    real f = bend * (t * t) - d.z * t;
+    real q = real(1) + sqrt(max(real(1) + real(2) * c * f, real(0)));
+    return rvec3(p.x, p.y, p.z + (real(2) * c * (f * f)) / (q * q));
 }
 
-// Where that curve from o (o.z >= 0, d going down) meets the floor z = 0: its smaller root,
-// 2 o.z / (sqrt(d.z^2 + 4 bend o.z) - d.z) (the straight ray's dmPlaneHit for bend 0), or
-// `none` where it has no root (a convex curve that turns up before the floor).
-DM_TFUNC real dmBentFloor(rvec3 o, rvec3 d, real bend, real none) {
+// The direction of that curve at t (not unit): (d.x, d.y, -D'(F) F'(t)), F' = 2 bend t - d.z,
+// D'(F) = 1 / sqrt(1 + 2 c F); d itself for bend 0.
+DM_TFUNC rvec3 dmBentTangent(rvec3 d, real bend, real curve, real t) {
+    if (bend == real(0)) {
+        return d;
+    }
+    real f = bend * (t * t) - d.z * t;
+    return rvec3(d.x, d.y, -(real(2) * bend * t - d.z) / sqrt(max(real(1) + real(2) * curve * f, real(1e-30))));
+}
+
+// The largest rate D'(F) = 1 / sqrt(1 + 2 c F) of the depth along F (dmBentPoint) inside a slab
+// L deep: at its floor, 1 / (1 + c L) (1 for c = 0; 2 at the renderer's limit, c L = -1/2).
+DM_TFUNC real dmBentDepthRate(real curve, real L) {
+    return real(1) / (real(1) + curve * L);
+}
+
+// Where that curve from o (o.z >= 0, d going down) meets the floor z = 0, D(F) = o.z: F =
+// o.z + c o.z^2 / 2, the smaller root 2 F / (sqrt(d.z^2 + 4 bend F) - d.z) of bend t^2 - d.z t
+// = F (the straight ray's dmPlaneHit for bend 0), or `none` where it has no root (a convex
+// curve that turns up before the floor).
+DM_TFUNC real dmBentFloor(rvec3 o, rvec3 d, real bend, real curve, real none) {
     if (bend == real(0)) {
         return dmPlaneHit(o, d, real(0));
     }
-    real disc = d.z * d.z + real(4) * bend * o.z;
-    return disc >= real(0) ? (real(2) * o.z) / (sqrt(disc) - d.z) : none;
+    real f = o.z + real(0.5) * curve * (o.z * o.z);
+    real disc = d.z * d.z + real(4) * bend * f;
+    return disc >= real(0) ? (real(2) * f) / (sqrt(disc) - d.z) : none;
 }
 
 // One sphere-tracing step (Hart 1996; Donnelly §8.3) with the interpolated distance `dist`
-// at the point of parameter t on the curve o + t d - bend t^2 z (bend 0: the straight ray; a
-// ray bent by a curved base, dmBentPoint above): returns 1 when converged
-// (dist <= eps; a fixed iteration count passes eps < 0), 2 when the step leaves through the
-// top (a miss), 0 to go on. The step dt moves the point by |dt d - bend (2 t + dt) dt z| <=
-// dt (1 + |bend| (2 t + dt)), which the root of |bend| dt^2 + (1 + 2 |bend| t) dt = dist keeps
-// within the distance read (for bend 0 it is dist itself, to the bit). A step below the bottom
-// plane stops on it (1): the solid fills z < 0.
-DM_TFUNC int dmSphereTraceStep(DM_INOUT(real) t, real dist, real eps, rvec3 o, rvec3 d, real bend, int L) {
+// at the point of parameter t on the curve dmBentPoint(o, d, bend, curve, t) (bend 0: the
+// straight ray): returns 1 when converged (dist <= eps; a fixed iteration count passes eps <
+// 0), 2 when the step leaves through the top (a miss), 0 to go on. For bend 0 the step is the
+// distance itself; a bent ray's point moves at |(d_h, D' F')| <= sqrt(|d_h|^2 + V(tau)^2) per
+// unit of tau, V = D'max (|d.z| + 2 |bend| tau) (dmBentDepthRate), so a step dt moves it by at
+// most dt sqrt(|d_h|^2 + V(t)^2) + D'max |bend| dt^2, which the root of that = dist keeps within
+// the distance read. A step below the bottom plane stops on it (1): the solid fills z < 0.
+DM_TFUNC int dmSphereTraceStep(DM_INOUT(real) t, real dist, real eps, rvec3 o, rvec3 d, real bend, real curve, int L) {
     if (dist <= eps) {
         return 1;
     }
-    real a = abs(bend);
-    real s = real(1) + real(2) * a * t;
     real r = max(dist, real(0));
-    t = t + (real(2) * r) / (s + sqrt(s * s + real(4) * a * r));
-    real z = o.z + t * d.z - bend * (t * t);
+    if (bend == real(0)) {
+        t = t + r;
+    } else {
+        real rate = dmBentDepthRate(curve, real(L));
+        real a = rate * abs(bend);
+        real v = rate * (abs(d.z) + real(2) * abs(bend) * t);
+        real s = sqrt(d.x * d.x + d.y * d.y + v * v);
+        t = t + (real(2) * r) / (s + sqrt(s * s + real(4) * a * r));
+    }
+    real z = bend == real(0) ? o.z + t * d.z : dmBentPoint(o, d, bend, curve, t).z;
     if (z > real(L)) {
         return 2;
     }
     if (z < real(0)) {
-        t = dmBentFloor(o, d, bend, t); // (a convex curve rounded just below the floor may have no root: stay)
+        t = dmBentFloor(o, d, bend, curve, t); // (a convex curve rounded just below the floor may have no root: stay)
         return 1;
     }
     return 0;

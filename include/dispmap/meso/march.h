@@ -176,27 +176,48 @@ template <class real> MesoHit marchDistanceMap(const DistanceMap& m, const glm::
     return r;
 }
 
+/// How a curved base bends a view ray in the slab (kern::dmBentPoint): `bend` the coefficient of
+/// t^2 of the shell's quadric along the ray (kern::dmShellBend at the entry) and `curve` the
+/// base's most convex principal curvature in voxels (kern::dmShellVoxels(shape, vpu).w, <= 0),
+/// which maps the quadric's level to the depth below the top (exactly on a ball or a cylinder).
+/// curve 0: the depth is the quadric's level, the ray a parabola. A plain double converts to
+/// a bend with curve 0.
+struct MesoBend {
+    double bend = 0, curve = 0;
+    MesoBend(double b = 0, double c = 0) : bend(b), curve(c) {}
+};
+
+namespace detail {
+// A bend the bent marchers take (`who` names the caller), in a slab `layers` deep.
+inline void checkBend(const MesoBend& b, int layers, const char* who) {
+    if (!std::isfinite(b.bend)) throw ArgumentError(std::string(who) + ": the ray must enter at the top (z = layers) going down, with a finite bend");
+    if (!(b.curve <= 0 && b.curve * layers > -1))
+        throw ArgumentError(std::string(who) + ": the bend's curve must be <= 0 and above -1 / layers (kern::dmShellLimit keeps it above -1/2)");
+}
+} // namespace detail
+
 /// marchDistanceMap along the ray bent by a curved base (kern::dmMesoMarchDistanceBent: each
-/// step moves the point along the parabola no farther than the distance read; `bend` from
-/// kern::dmShellBend at the entry o0, a view ray from the top: o0.z = layers, d0 going down).
-/// The hit's t is the straight ray's; `slabPoint` (if given) gets the hit in the slab's
-/// coordinates, where the detail is read. ArgumentError for an entry off the top, an upward
-/// ray or a bend that is not finite.
+/// step moves the point along the curve no farther than the distance read; `bend` (MesoBend) at
+/// the entry o0, a view ray from the top: o0.z = layers, d0 going down). The hit's t is the
+/// straight ray's; `slabPoint` (if given) gets the hit in the slab's coordinates, where the
+/// detail is read. ArgumentError for an entry off the top, an upward ray or a bend that is not
+/// finite (or a curve out of range).
 template <class real>
-MesoHit marchDistanceMapBent(const DistanceMap& m, const glm::dvec3& o0, const glm::dvec3& d0, double bend, int iterations, double eps,
+MesoHit marchDistanceMapBent(const DistanceMap& m, const glm::dvec3& o0, const glm::dvec3& d0, MesoBend bend, int iterations, double eps,
                              glm::dvec3* slabPoint = nullptr) {
     detail::checkRay(o0, d0, "marchDistanceMapBent");
     detail::checkDistanceMap(m, "marchDistanceMapBent");
-    if (!(o0.z == m.layers) || !(d0.z < 0) || !std::isfinite(bend))
+    if (!(o0.z == m.layers) || !(d0.z < 0))
         throw ArgumentError("marchDistanceMapBent: the ray must enter at the top (z = layers) going down, with a finite bend");
+    detail::checkBend(bend, m.layers, "marchDistanceMapBent");
     kern::DmMesoMapsT<real> maps;
     maps.layers = m.layers;
     maps.distance = &m;
     MesoHit r;
     real t = 0;
     glm::vec<3, real> p;
-    r.hit = kern::dmMesoMarchDistanceBent(maps, detail::v3<real>(o0), detail::v3<real>(d0), static_cast<real>(bend), iterations,
-                                          static_cast<real>(eps), t, p, r.iterations);
+    r.hit = kern::dmMesoMarchDistanceBent(maps, detail::v3<real>(o0), detail::v3<real>(d0), static_cast<real>(bend.bend),
+                                          static_cast<real>(bend.curve), iterations, static_cast<real>(eps), t, p, r.iterations);
     r.t = static_cast<double>(t);
     if (slabPoint) *slabPoint = glm::dvec3(p);
     return r;
@@ -251,26 +272,27 @@ inline constexpr double kMesoChordError = 0.05;
 /// radius they see (so that a thick slab on a thin part does not show holes).
 inline constexpr double kShellCurvatureLimit = 0.5;
 
-/// marchDdm along the ray bent by a curved base (kern::dmMesoMarchDdmBent; `bend` from
-/// kern::dmShellBend at the entry o0, a view ray from the top: o0.z = layers, d0 going down).
+/// marchDdm along the ray bent by a curved base (kern::dmMesoMarchDdmBent; `bend` (MesoBend) at
+/// the entry o0, a view ray from the top: o0.z = layers, d0 going down).
 /// The hit's t is the straight ray's; `slabPoint` (if given) gets the hit in the slab's
 /// coordinates, where the detail is read. ArgumentError as marchDdm, and for an entry off the
 /// top, an upward ray or a bend that is not finite.
 template <class real, class Map>
 MesoHit marchDdmBent(const Map& map, const ConeSet& cones, int layers, const ColumnQuadrics* quadrics, const glm::dvec3& o0,
-                     const glm::dvec3& d0, double bend, const DdmMarch& opt, glm::dvec3* slabPoint = nullptr) {
+                     const glm::dvec3& d0, MesoBend bend, const DdmMarch& opt, glm::dvec3* slabPoint = nullptr) {
     if (!cones.isotropic && !cones.shadow)
         throw ArgumentError("marchDdmBent: a ray bent back up marches upward chords: the map needs shadow cones (or to be isotropic)");
     const kern::DmMesoMapsT<real> maps = detail::ddmMaps<real>(map, layers, quadrics, o0, d0, opt, "marchDdmBent");
-    if (!(o0.z == layers) || !(d0.z < 0) || !std::isfinite(bend))
+    if (!(o0.z == layers) || !(d0.z < 0))
         throw ArgumentError("marchDdmBent: the ray must enter at the top (z = layers) going down, with a finite bend");
+    detail::checkBend(bend, layers, "marchDdmBent");
     MesoHit r;
     real t = 0;
     glm::vec<3, real> p;
     int triangle;
     glm::vec<2, real> uv;
-    r.hit = kern::dmMesoMarchDdmBent(maps, detail::v3<real>(o0), detail::v3<real>(d0), static_cast<real>(bend), cones.kernelM(), cones.n,
-                                     opt.maxIterations, opt.quadrics, false, opt.exitRule, mesoRootTolerance<real>(), real(kMesoChordError), t,
+    r.hit = kern::dmMesoMarchDdmBent(maps, detail::v3<real>(o0), detail::v3<real>(d0), static_cast<real>(bend.bend),
+                                     static_cast<real>(bend.curve), cones.kernelM(), cones.n, opt.maxIterations, opt.quadrics, false, opt.exitRule, mesoRootTolerance<real>(), real(kMesoChordError), t,
                                      p, r.iterations, triangle, uv);
     r.t = static_cast<double>(t);
     if (slabPoint) *slabPoint = glm::dvec3(p);
@@ -322,25 +344,25 @@ template <class real> MesoHit marchHeightSearch(const MesoHeightField& hf, const
 }
 
 /// marchHeightSearch along the ray bent by a curved base (kern::dmMesoMarchHeightBent; `bend`
-/// from kern::dmShellBend at the entry o0, a view ray from the top: o0.z = layers, d0 going
-/// down). The hit's t is the straight ray's; `slabPoint` (if given) gets the hit in the slab's
+/// (MesoBend) at the entry o0, a view ray from the top: o0.z = layers, d0 going down). The hit's t is the straight ray's; `slabPoint` (if given) gets the hit in the slab's
 /// coordinates, where the detail is read. A ray a convex base bends back up to the top without
 /// meeting the surface misses. ArgumentError as marchHeightSearch, and for an entry off the top
 /// or a bend that is not finite.
 template <class real>
-MesoHit marchHeightSearchBent(const MesoHeightField& hf, const glm::dvec3& o0, const glm::dvec3& d0, double bend, int linear, int binary,
+MesoHit marchHeightSearchBent(const MesoHeightField& hf, const glm::dvec3& o0, const glm::dvec3& d0, MesoBend bend, int linear, int binary,
                               glm::dvec3* slabPoint = nullptr) {
     detail::checkHeightSearch(o0, d0, linear, "marchHeightSearchBent");
-    if (!(o0.z == hf.layers) || !std::isfinite(bend))
+    if (!(o0.z == hf.layers))
         throw ArgumentError("marchHeightSearchBent: the ray must enter at the top (z = layers), with a finite bend");
+    detail::checkBend(bend, hf.layers, "marchHeightSearchBent");
     kern::DmMesoMapsT<real> maps;
     maps.layers = hf.layers;
     maps.field = &hf;
     MesoHit r;
     real t = 0;
     glm::vec<3, real> p;
-    r.hit = kern::dmMesoMarchHeightBent(maps, detail::v3<real>(o0), detail::v3<real>(d0), static_cast<real>(bend), linear, binary, t, p,
-                                        r.iterations);
+    r.hit = kern::dmMesoMarchHeightBent(maps, detail::v3<real>(o0), detail::v3<real>(d0), static_cast<real>(bend.bend),
+                                        static_cast<real>(bend.curve), linear, binary, t, p, r.iterations);
     r.t = static_cast<double>(t);
     if (slabPoint) *slabPoint = glm::dvec3(p);
     return r;
@@ -429,24 +451,25 @@ MesoSolidHit marchDdmSolid(const Map& map, const ConeSet& cones, const MesoSolid
 }
 
 /// marchDdmSolid along the ray bent by a curved base (kern::dmMesoMarchDdmBent with `solid`:
-/// chords within kMesoChordError voxels of the parabola, each marched with the solid's exact
-/// triangle tests; `bend` from kern::dmShellBend at the entry o, a view ray from the top:
-/// o.z = layers, d going down). The hit's t is the straight ray's; `slabPoint` (if given) gets
+/// chords within kMesoChordError voxels of the curve, each marched with the solid's exact
+/// triangle tests; `bend` (MesoBend) at the entry o, a view ray from the top: o.z = layers, d
+/// going down). The hit's t is the straight ray's; `slabPoint` (if given) gets
 /// the hit in the slab's coordinates, where the triangle is. ArgumentError as marchDdmSolid,
 /// for a map without shadow cones (a convex base bends rays back up), an entry off the top, an
 /// upward ray or a bend that is not finite.
 template <class real = double, class Map>
-MesoSolidHit marchDdmSolidBent(const Map& map, const ConeSet& cones, const MesoSolid& s, const glm::dvec3& o, const glm::dvec3& d, double bend,
+MesoSolidHit marchDdmSolidBent(const Map& map, const ConeSet& cones, const MesoSolid& s, const glm::dvec3& o, const glm::dvec3& d, MesoBend bend,
                                int maxIterations = 1024, int exitRule = 1, glm::dvec3* slabPoint = nullptr) {
     const kern::DmMesoMapsT<real> maps = detail::solidMaps<real>(map, cones, s, o, d, true, "marchDdmSolidBent");
-    if (!(o.z == s.layers) || !(d.z < 0) || !std::isfinite(bend))
+    if (!(o.z == s.layers) || !(d.z < 0))
         throw ArgumentError("marchDdmSolidBent: the ray must enter at the top (z = layers) going down, with a finite bend");
+    detail::checkBend(bend, s.layers, "marchDdmSolidBent");
     MesoSolidHit r;
     real t = 0;
     glm::vec<3, real> p;
     glm::vec<2, real> uv(0);
-    r.hit = kern::dmMesoMarchDdmBent(maps, detail::v3<real>(o), detail::v3<real>(d), static_cast<real>(bend), cones.kernelM(), cones.n,
-                                     maxIterations, false, true, exitRule, mesoRootTolerance<real>(), real(kMesoChordError), t, p, r.iterations,
+    r.hit = kern::dmMesoMarchDdmBent(maps, detail::v3<real>(o), detail::v3<real>(d), static_cast<real>(bend.bend),
+                                     static_cast<real>(bend.curve), cones.kernelM(), cones.n, maxIterations, false, true, exitRule, mesoRootTolerance<real>(), real(kMesoChordError), t, p, r.iterations,
                                      r.triangle, uv);
     r.t = static_cast<double>(t);
     r.uv = glm::dvec2(uv);
@@ -591,11 +614,11 @@ inline MesoMapOptions mesoMapOptionsFor(const MesoTechnique& technique, bool sha
 }
 
 /// One view ray through `maps` by `technique` along the ray bent by a curved base (`bend`:
-/// kern::dmShellBend at the entry): the distance map (marchDistanceMapBent), the DDM
+/// MesoBend at the entry): the distance map (marchDistanceMapBent), the DDM
 /// (marchDdmBent; marchDdmSolidBent over a solid), relief mapping or POM
 /// (marchHeightSearchBent). `slabPoint`: the hit in the slab's coordinates.
 template <class real>
-MesoHit marchMesoBent(const MesoMaps& maps, const MesoTechnique& tq, const glm::dvec3& o, const glm::dvec3& d, double bend,
+MesoHit marchMesoBent(const MesoMaps& maps, const MesoTechnique& tq, const glm::dvec3& o, const glm::dvec3& d, MesoBend bend,
                       glm::dvec3* slabPoint = nullptr) {
     switch (tq.method) {
     case MesoMethod::DistanceMap:

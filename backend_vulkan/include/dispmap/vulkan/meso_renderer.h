@@ -83,13 +83,15 @@ struct MesoRenderOptions : MesoLook {
     /// a base built with FrameMeshOptions::shape. Off: the locally planar slab everywhere.
     bool silhouettes = false;
     /// The view ray bent by the base's curvature (kern::dmMesoMarchDdmBent,
-    /// kern::dmMesoMarchHeightBent): in the slab's own coordinates the straight world ray is a
-    /// parabola, marched as chords by the DDM and sampled along the parabola itself by relief
-    /// mapping and POM, so the detail lies at its depth below the curved top rather than below
-    /// the entry's tangent plane, and a ray bent back up leaves the shell by itself (silhouettes
-    /// without the cut). The DDM, relief mapping or POM on a height field (not the distance map,
-    /// not a solid); needs a base built with FrameMeshOptions::shape. Shadow rays stay straight
-    /// (cut with `silhouettes`).
+    /// kern::dmMesoMarchHeightBent, kern::dmMesoMarchDistanceBent): in the slab's own
+    /// coordinates the straight world ray is a curve (kern::dmBentPoint: the shell's quadric
+    /// along the ray, its level taken to the depth below the top as on a ball or a cylinder),
+    /// marched as chords by the DDM (of a height field or a solid), sampled along the curve
+    /// itself by relief mapping and POM and sphere-traced along it through the distance map, so
+    /// the detail lies at its depth below the curved top rather than below the entry's tangent
+    /// plane, and a ray bent back up leaves the shell by itself (silhouettes without the cut).
+    /// Needs a base built with FrameMeshOptions::shape. Shadow rays stay straight (cut with
+    /// `silhouettes`).
     bool bentRays = false;
     double ambient = 0.2;
     glm::dvec3 background{0.12, 0.13, 0.16};
@@ -119,6 +121,7 @@ struct MesoImage {
     std::vector<glm::vec3> rayOrigin, rayDir; ///< the pixel's view ray in voxel space (where covered)
     std::vector<std::uint8_t> part;          ///< which MesoPart drew the pixel (where covered; 0 with one mesostructure)
     std::vector<float> bend;                 ///< the view ray's bend (kern::dmShellBend) with bentRays, else 0
+    std::vector<float> curve;                ///< and its curve (MesoBend::curve: kern::dmShellVoxels(shape).w), else 0
     double gpuMs = 0;                        ///< median GPU time of the timed frames (timestamps)
     int frames = 0;
 };
