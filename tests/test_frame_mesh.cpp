@@ -287,8 +287,8 @@ TEST_CASE("dmShellExit: where a ray leaves the curved shell through its top", "[
         std::mt19937 g(29);
         std::uniform_real_distribution<double> u(-1.0, 1.0);
         const double L = 16.0;
-        double worst = 0, worstParabola = 0;
-        int points = 0;
+        double worst = 0, worstParabola = 0, worstFloor = 0;
+        int points = 0, floors = 0;
         for (int k = 0; k < 400; ++k) {
             const bool ball = k % 2 == 1;
             glm::dvec3 pS(0.3, 0.0, 0.0), pT(0.0, 0.4, 0.0), n(0.0, 0.0, 1.0);
@@ -305,6 +305,15 @@ TEST_CASE("dmShellExit: where a ray leaves the curved shell through its top", "[
             const double bend = kern::dmShellBend(d, shape, vpu), curve = kern::dmShellVoxels(shape, vpu).w;
             const glm::dvec3 P(1.0, 2.0, 3.0), C = P - n * R;
             const glm::dvec3 D = pS * (d.x / vpu.x) + pT * (d.y / vpu.y) + n * (d.z / vpu.z); // d's world image
+            // Where the ray meets the slab's floor (kern::dmBentFloor): the world point is delta
+            // deep there, where the straight ray reaches the inner circle or ball.
+            const double tFloor = kern::dmBentFloor(o, d, bend, curve, -1.0);
+            if (tFloor >= 0) {
+                const glm::dvec3 X = P + D * tFloor;
+                const glm::dvec3 r = ball ? X - C : (X - C) - glm::normalize(pT) * glm::dot(X - C, glm::normalize(pT));
+                worstFloor = std::max(worstFloor, std::abs((R - glm::length(r)) - delta) / delta);
+                floors += 1;
+            }
             for (int i = 1; i <= 200; ++i) {
                 const double t = i * 0.5;
                 const glm::dvec3 X = P + D * t;
@@ -317,8 +326,11 @@ TEST_CASE("dmShellExit: where a ray leaves the curved shell through its top", "[
                 ++points;
             }
         }
-        INFO(points << " points: worst |z - exact| " << worst << " voxels; the parabola's " << worstParabola);
+        INFO(points << " points: worst |z - exact| " << worst << " voxels; the parabola's " << worstParabola << "; " << floors
+                    << " floors, worst depth error there " << worstFloor << " delta");
         CHECK(points > 5000);
+        CHECK(floors > 100);
+        CHECK(worstFloor < 1e-9);
         CHECK(worst < 1e-9 * L);
         CHECK(worstParabola > 0.2 * L); // measured 3.96 voxels of 16
     }
@@ -437,13 +449,14 @@ BentEnd bentEnd(double L, const glm::dvec3& d, const MesoBend& b) {
     return e;
 }
 
-TEST_CASE("a bent ray's DDM march finds the parabola's first crossing of the height field", "[meso][frame][silhouette]") {
+TEST_CASE("a bent ray's DDM march finds the bent ray's first crossing of the height field", "[meso][frame][silhouette]") {
     // The grating and a wave field, 4x1 + shadow cones (bent-up chords read them), quadrics. The
-    // reference walks the parabola P(t) = o + t d - bend t^2 z itself in steps of 1/64 voxel: the
+    // reference walks the bent ray (kern::dmBentPoint; with curve 0 the parabola o + t d - bend
+    // t^2 z) itself in steps of 1/64 of its parameter: the
     // chords lie within e = kMesoChordError (0.05 voxels, vertically) of it (more where 64 chords
     // are too few: |bend| (length / 64)^2 / 4), so the march's hit must
-    // lie between the first point where the parabola comes within 0.05 of the surface (or the
-    // floor) and the first where it is 0.05 below it; a parabola that never comes within 0.05
+    // lie between the first point where the ray comes within 0.05 of the surface (or the
+    // floor) and the first where it is 0.05 below it; a ray that never comes within 0.05
     // of it before it leaves through the top again is a miss, and one that dips 0.05 below is a hit
     // (the walk's "within" widened by what the field can change between two of its points).
     for (const char* function : {"grating", "waves"}) {
@@ -454,8 +467,8 @@ TEST_CASE("a bent ray's DDM march finds the parabola's first crossing of the hei
         const double L = field.layers, eChord = kMesoChordError;
         // The walk's own blind spot: between two of its points (1/64 of a voxel or less apart
         // horizontally) the field changes by at most its steepest texel step / 64 and the ray by
-        // its vertical speed / 64 (at most 2: a depth rate up to 2, below).
-        const double walkSlack = steepestStep(field) / 64.0 + 2.0 / 64.0;
+        // its vertical speed / 64 (the depth rate times |F'|, per ray below).
+        const double steep = steepestStep(field);
         std::mt19937 g(5);
         std::uniform_real_distribution<double> u(0.0, 1.0);
         int hits = 0, misses = 0, bentUp = 0, straight = 0, checked = 0;
@@ -471,6 +484,7 @@ TEST_CASE("a bent ray's DDM march finds the parabola's first crossing of the hei
             const BentEnd end = bentEnd(L, d, bend);
             const double tEnd = end.tEnd;
             const double e = std::max(eChord, end.zpp * (tEnd / 64.0) * (tEnd / 64.0) / 8.0);
+            const double walkSlack = (steep + end.rate * (std::abs(d.z) + 2.0 * std::abs(bend.bend) * tEnd)) / 64.0;
             const BentWalk w = walkBentRay(field, o, d, bend, e + walkSlack, e);
             const double tNear = w.tNear, tDeep = w.tDeep;
             const bool leaves = w.leaves;
@@ -488,7 +502,7 @@ TEST_CASE("a bent ray's DDM march finds the parabola's first crossing of the hei
             if (tDeep >= 0) {
                 REQUIRE(h.hit);
                 ++hits;
-                // t on the straight ray is the parabola's parameter: between the two walk points
+                // t on the straight ray is the bent ray's parameter: between the two walk points
                 // (one step of slack either side).
                 CHECK(h.t >= tNear - 1.0 / 64.0);
                 CHECK(h.t <= tDeep + 1.0 / 64.0);
@@ -541,13 +555,13 @@ TEST_CASE("a bent ray's DDM march finds the parabola's first crossing of the hei
     CHECK_THROWS_WITH(marchMesoBent<float>(noShadow, MesoTechnique{}, glm::dvec3(1, 1, 8), d, -0.01), Contains("needs shadow cones"));
 }
 
-TEST_CASE("relief mapping and POM along a bent ray find the parabola's first crossing of the height field", "[meso][frame][silhouette]") {
-    // The same walk as the DDM's test above. Relief mapping and POM sample the parabola itself
+TEST_CASE("relief mapping and POM along a bent ray find its first crossing of the height field", "[meso][frame][silhouette]") {
+    // The same walk as the DDM's test above. Relief mapping and POM sample the bent ray itself
     // (no chords) in equal steps dt of its parameter, as many as make no step longer than the
     // straight ray's (the straight ray to the floor over `linear`), at least `linear` and at most
     // 4 linear (the rule of kern::dmMesoMarchHeightBent, computed here on its own), so their
     // bound is the linear search's: a crossing of the surface is found in the step where a
-    // sample first lies at or below it. Between two samples above it the parabola can dip below the surface by at most
+    // sample first lies at or below it. Between two samples above it the ray can dip below the surface by at most
     // Lip dt / 2, Lip the rate at which "how far below" changes along it (the field's steepest
     // step times the horizontal speed, |d.z| + 2 |bend| t vertically). So the hit lies between
     // the walk's first point within Lip dt / 2 of the surface, less one step, and its first
@@ -557,7 +571,7 @@ TEST_CASE("relief mapping and POM along a bent ray find the parabola's first cro
         const MesoHeightField field = mesoFunctionField(function, 32, 16);
         const MesoMaps maps = buildMesoMaps(field, mesoMapOptionsFor(MesoTechnique{MesoMethod::Relief}, false));
         REQUIRE(maps.ddm.grid.empty()); // relief mapping reads heights only
-        const double L = field.layers, steep = steepestStep(field), walkSlack = steep / 64.0 + 2.0 / 64.0;
+        const double L = field.layers, steep = steepestStep(field);
         std::mt19937 g(11);
         std::uniform_real_distribution<double> u(0.0, 1.0);
         for (const MesoMethod method : {MesoMethod::Relief, MesoMethod::Pom}) {
@@ -579,7 +593,7 @@ TEST_CASE("relief mapping and POM along a bent ray find the parabola's first cro
                 longer += steps > tq.linear ? 1 : 0;
                 // (the curve's vertical speed: the depth rate times |F'|)
                 const double lip = steep + end.rate * (std::abs(d.z) + 2.0 * std::abs(bend.bend) * (tEnd + dt));
-                const double slack = 0.5 * lip * dt;
+                const double slack = 0.5 * lip * dt, walkSlack = lip / 64.0; // (lip: the field's step and the ray's vertical speed)
                 const BentWalk w = walkBentRay(field, o, d, bend, slack + walkSlack, slack);
                 glm::dvec3 slab;
                 const MesoHit h = marchMesoBent<double>(maps, tq, o, d, bend, &slab);
@@ -613,8 +627,8 @@ TEST_CASE("relief mapping and POM along a bent ray find the parabola's first cro
             CHECK(misses > 30);
             CHECK(bentUp > 100);
         }
-        // Relief mapping's bisections run on the parabola too: with 8 coarse steps and 24
-        // bisections the hit's bracket is dt / 2^24 wide, and the parabola's point there lies on
+        // Relief mapping's bisections run on the bent ray too: with 8 coarse steps and 24
+        // bisections the hit's bracket is dt / 2^24 wide, and the ray's point there lies on
         // the surface to Lip times that (a sign change of "how far below", which is continuous).
         MesoTechnique fine;
         fine.method = MesoMethod::Relief;
@@ -656,13 +670,15 @@ TEST_CASE("relief mapping and POM along a bent ray find the parabola's first cro
     }
 }
 
-TEST_CASE("the distance map along a bent ray converges on the parabola's crossing and never passes it", "[meso][frame][silhouette]") {
+TEST_CASE("the distance map along a bent ray converges on the bent ray's crossing and never passes it", "[meso][frame][silhouette]") {
     // A flat field at h = 5.25: Donnelly's signed distance is z - h exactly at every sample (the
     // layers' centres) and trilinear interpolation keeps it exact in between, so sphere tracing
-    // along the parabola P(t) = o + t d - bend t^2 z (kern::dmMesoMarchDistanceBent) must never
+    // along the bent ray (kern::dmBentPoint; with curve 0 the parabola o + t d - bend t^2 z;
+    // kern::dmMesoMarchDistanceBent) must never
     // take the point below the plane (each step moves it no farther than the distance read,
-    // whatever the bend) and must converge on the parabola's first crossing of z = h, the
-    // smaller root of L + d.z t - bend t^2 = h; a convex parabola that turns up before the plane
+    // whatever the bend) and must converge on the ray's first crossing of z = h, where the
+    // quadric's level bend t^2 - d.z t is that depth's, (L - h) + curve (L - h)^2 / 2 (its
+    // smaller root); a convex ray that turns up before the plane
     // rises back through the top: a miss.
     const double h = 5.25;
     const MesoHeightField field = mesoHeightField(32, 32, 16, std::vector<float>(32 * 32, static_cast<float>(h)));

@@ -786,13 +786,13 @@ TEST_CASE("the solid's march in float (the GPU's) finds the double reference's t
 }
 
 TEST_CASE("a bent ray's solid march finds the first crossing of its chords with the triangles", "[meso][solid][silhouette]") {
-    // On a curved base the solid is marched along the parabola P(t) = o + t d - bend t^2 z as
-    // chords (kern::dmMesoMarchDdmBent with `solid`). The reference rebuilds the same chords
-    // (their count from the rule written out here: as few as keep each within 0.05 voxels of the
-    // parabola, |bend| len^2 / 4, at most 64) and walks each voxel by voxel in double with every
+    // On a curved base the solid is marched along the bent ray kern::dmBentPoint (with curve 0
+    // the parabola P(t) = o + t d - bend t^2 z) as chords (kern::dmMesoMarchDdmBent with `solid`).
+    // The reference rebuilds the same chords (their count from the rule written out here: as few
+    // as keep each within 0.05 voxels of the curve, z'' len^2 / 8, at most 64) and walks each voxel by voxel in double with every
     // copy of every triangle listed there (marchSolidReference up to the chord's end; the last
     // chord of a ray that reaches the floor goes on straight): its first crossing is the hit, a
-    // chord that leaves through the top or a parabola bent back up to the top is a miss.
+    // chord that leaves through the top or a ray bent back up to the top is a miss.
     const MesoSolid s = fourBeads();
     MesoMapOptions opt;
     opt.cones = ConeSet{4, 1, true, false};

@@ -109,7 +109,7 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
            "(MesoRenderOptions::silhouettes): the same march, its hit dropped past the point where the ray leaves the shell "
            "modelled by the cylinder's second fundamental form and principal curvature (kern::dmShellExit: the cylinder's exact top), false hits and false misses (the exact ray "
            "hits, the cut march does not). Bent: the march along the ray bent by the same quadric (MesoRenderOptions::bentRays, "
-           "marchMesoBent: chords of the parabola the straight world ray is in the slab's own coordinates), its hit in those "
+           "marchMesoBent: chords of the curve the straight world ray is in the slab's own coordinates, its depth the cylinder's), its hit in those "
            "coordinates against the exact one.\n\n";
     const MesoHeightField field = mesoFunctionField("grating", 64, 16);
     // With shadow cones: the bent march's chords rise again where the cylinder curves away (the
@@ -167,7 +167,8 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
                 const bool cutHit = planar.hit && !(exitT >= 0 && planar.t > exitT);
                 if (cutHit && !exactHits) ++cell.cutFalseHits;
                 if (!cutHit && exactHits) ++cell.cutFalseMisses;
-                // With bent rays: the same DDM march along the parabola of the same quadric.
+                // With bent rays: the same DDM march along the ray bent by the same quadric, its
+                // depth the cylinder's (MesoBend's curve: kern::dmBentPoint).
                 glm::dvec3 slab(0.0);
                 const MesoBend bend(kern::dmShellBend(d, shape, vpu), kern::dmShellVoxels(shape, vpu).w);
                 const MesoHit bent = marchMesoBent<double>(maps, tq, o, d, bend, &slab);
@@ -210,7 +211,7 @@ void printMesoCurvedTable(std::ostream& out, const MesoTableArgs& args) {
     }
     out << "\nRelief mapping (32 linear steps + 6 bisections), POM (32 steps) and Donnelly's distance map (eps 0.02, at most 64 "
            "steps) on the same rays and field, planar (the ray in the entry's frame) and bent (kern::dmMesoMarchHeightBent: the "
-           "linear search and its refinement on the parabola itself; kern::dmMesoMarchDistanceBent: sphere tracing along it); error "
+           "linear search and its refinement on the bent ray itself; kern::dmMesoMarchDistanceBent: sphere tracing along it); error "
            "p50 / p90 as above, false hits / false misses against the exact shell:\n\n"
            "| delta / R | incidence | relief: error | relief: false hits / misses | relief bent: error | relief bent: false hits / misses "
            "| POM: error | POM: false hits / misses | POM bent: error | POM bent: false hits / misses "

@@ -127,9 +127,10 @@ DM_TFUNC real dmShellAlong(rvec3 d, rvec4 k) {
 
 // The bend of the ray p + t d in the shell's own coordinates (dmShellExit's quadric, below): the
 // coefficient a of t^2 in F along the ray, voxels^-1. In the slab's coordinates, where the top
-// lies at z = L everywhere, the straight world ray from the entry o is the parabola
-// o + t d - a t^2 z (dmMesoMarchDdmBent): a < 0 along a convex direction (the ray rises back to
-// the top and leaves), a > 0 along a concave one.
+// lies at z = L everywhere, the straight world ray from the entry o is the curve dmBentPoint
+// (meso.h: F = a t^2 - d.z t taken to the depth; with no convex curvature the parabola
+// o + t d - a t^2 z): a < 0 along a convex direction (the ray rises back to the top and leaves),
+// a > 0 along a concave one.
 DM_TFUNC real dmShellBend(rvec3 d, rvec4 shape, rvec3 voxelsPerUnit) {
     return dmShellAlong(d, dmShellVoxels(shape, voxelsPerUnit));
 }

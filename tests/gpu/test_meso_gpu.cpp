@@ -1030,7 +1030,9 @@ TEST_CASE("silhouettes and bent rays: no detail drawn outside the curved shell, 
         // 1e-3: at the outline's grazing pixels the rasteriser's interpolation decides that,
         // and an NVIDIA H200's missed it for 25 of 80 (lavapipe's for under a tenth).
         CHECK(c.cutFound >= (strict ? c.cut - c.cut / 10 : c.cut / 2));
-        CHECK(c.overCut == 0);
+        // No cut hit lies well inside the shell: on the hard-case field. Where the floor shows
+        // (the flat field below) the cut does take away floor the true ray reaches (counted).
+        if (&maps == &shadowMaps()) CHECK(c.overCut == 0);
         // The CPU's frame is the exact barycentric one, the GPU's the rasteriser's float
         // interpolation: a shadow ray at a grazing edge may go the other way.
         if (o.shadows) CHECK(c.shadowSame >= c.found - c.found / 50);
@@ -1066,12 +1068,12 @@ TEST_CASE("silhouettes and bent rays: no detail drawn outside the curved shell, 
     if (strict) CHECK(bent.bentSame == bent.bentRays);
     CHECK(bent.bentSame >= bent.bentRays - bent.bentRays / 50);
     // Relief mapping and POM along the same bent rays (kern::dmMesoMarchHeightBent, sampling the
-    // parabola itself): nothing outside the shell and every pixel as the CPU's march. Holes are
+    // bent ray itself): nothing outside the shell and every pixel as the CPU's march. Holes are
     // the linear search's own: a ray that grazes the convex shell dips into it for a short
     // stretch and comes back out, and steps as long as the straight ray's may step over where it
     // meets the detail (3 of 2586 rays to the floor on lavapipe, for both; none with 128
     // steps, which the relief pass with 128 checks). The DDM's conservative steps cannot step
-    // over it. Donnelly's distance map (32 fixed steps along the parabola,
+    // over it. Donnelly's distance map (32 fixed steps along the bent ray,
     // kern::dmMesoMarchDistanceBent) as well (linear 0 below: its own iterations).
     for (const auto& [method, linear] : {std::pair{MesoMethod::Relief, 32}, std::pair{MesoMethod::Pom, 32}, std::pair{MesoMethod::Relief, 128},
                                          std::pair{MesoMethod::DistanceMap, 0}}) {
@@ -1105,7 +1107,7 @@ TEST_CASE("silhouettes and bent rays: no detail drawn outside the curved shell, 
     const MesoMaps flat = dispmap::buildMesoMaps(dispmap::mesoHeightField(16, 16, 16, std::vector<float>(256, 0.0f)), flatOptions);
     for (const double depth : {0.2, 0.05}) {
         o.depth = depth * kRt;
-        const Count floor = measure(false, true, flat), h = measure(false, true, beadMaps());
+        const Count floor = measure(false, true, flat), h = measure(false, true, beadMaps()), floorCut = measure(true, false, flat);
         INFO("solid bent, delta / R " << depth << ": " << h.hits << " hits, " << h.outside << " outside (worst " << h.worst / o.depth << " delta), "
                                       << h.holes << " holes of " << h.coreRays << " rays to the floor (" << h.deepHoles << " deep), "
                                       << h.bentSame << " of " << h.bentRays << " as the CPU; the flat field: " << floor.holes << " holes ("
@@ -1123,7 +1125,9 @@ TEST_CASE("silhouettes and bent rays: no detail drawn outside the curved shell, 
                                                  << h.worst / o.depth << " delta above), " << h.holes << " holes of " << h.coreRays
                                                  << " rays to the floor (" << h.deepHoles << " reaching a quarter of the depth below it); a flat field "
                                                  << floor.outside << " of " << floor.hits << " outside, " << floor.holes << " holes of "
-                                                 << floor.coreRays << " (" << floor.deepHoles << ")");
+                                                 << floor.coreRays << " (" << floor.deepHoles << "); the flat field with silhouettes (planar) "
+                                                 << floorCut.outside << " outside, " << floorCut.holes << " holes (" << floorCut.deepHoles << "), " << floorCut.overCut
+                                                 << " cut hits well inside the shell");
     }
     o.depth = 0.2 * kRt;
     o.shadows = true;

@@ -271,7 +271,14 @@ DM_TFUNC bool dmMesoMarchDdmBent(DmMesoMaps m, rvec3 o, rvec3 d, real bend, real
             return false; // out through the top within the chord
         }
         if (count >= maxIterations) {
-            return true; // out of iterations: a hit where it stopped (conservative)
+            // Out of iterations: a hit where it stopped (conservative), on this chord (a crossing
+            // found past its end is not this chord's: not a triangle hit either).
+            real tk = min(tc, len);
+            tHit = ta + (tb - ta) * (tk / len);
+            pHit = pa + u * tk;
+            triangle = -1;
+            uv = rvec2(real(0));
+            return true;
         }
     }
     // Only a ray bent back to the top gets here: it has left the shell.

@@ -265,7 +265,7 @@ MesoHit marchDdm(const Map& map, const ConeSet& cones, int layers, const ColumnQ
     return r;
 }
 
-/// How far (voxels) each chord of a bent ray may lie from its parabola (kern::dmMesoMarchDdmBent).
+/// How far (voxels) each chord of a bent ray may lie from its curve (kern::dmMesoMarchDdmBent).
 inline constexpr double kMesoChordError = 0.05;
 /// The most convex curvature times the slab's depth that the renderer's silhouettes and bent
 /// rays take from a base (kern::dmShellLimit): where the base is tighter, half the depth is the
