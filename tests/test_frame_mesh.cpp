@@ -429,6 +429,15 @@ BentWalk walkBentRay(const MesoHeightField& field, const glm::dvec3& o, const gl
     return w;
 }
 
+// A bend of 0 marches the straight ray: the same hit, t and count as marchMeso, bit for bit, at
+// both precisions.
+void checkUnbentIsStraight(const MesoMaps& maps, const MesoTechnique& tq, const glm::dvec3& o, const glm::dvec3& d) {
+    const MesoHit a = marchMesoBent<float>(maps, tq, o, d, 0.0), b = marchMeso<float>(maps, tq, o, d);
+    CHECK((a.hit == b.hit && a.t == b.t && a.iterations == b.iterations));
+    const MesoHit c = marchMesoBent<double>(maps, tq, o, d, 0.0), e = marchMeso<double>(maps, tq, o, d);
+    CHECK((c.hit == e.hit && c.t == e.t && c.iterations == e.iterations));
+}
+
 // A bent ray from the top of a slab L deep (MesoBend): where it ends (the floor, D(F) = L at F =
 // L + c L^2 / 2, or the top again, F = 0, when a convex bend turns it up first), written out
 // here on its own; its depth rate D' at the floor; the bound z'' <= D' (2 |bend| + |c| D'^2
@@ -547,8 +556,7 @@ TEST_CASE("a bent ray's DDM march finds the bent ray's first crossing of the hei
     // A bend of 0 is the straight march, bit for bit; the errors.
     const MesoMaps maps = buildMesoMaps(mesoFunctionField("grating", 32, 16), mesoMapOptionsFor(MesoTechnique{}, true, ConeSet{4, 1, false, false}));
     const glm::dvec3 o(3.3, 7.1, 16.0), d = glm::normalize(glm::dvec3(0.7, 0.2, -0.3));
-    const MesoHit a = marchMesoBent<float>(maps, MesoTechnique{}, o, d, 0.0), b = marchMeso<float>(maps, MesoTechnique{}, o, d);
-    CHECK((a.hit == b.hit && a.t == b.t && a.iterations == b.iterations));
+    checkUnbentIsStraight(maps, MesoTechnique{}, o, d);
     CHECK_THROWS_WITH(marchMesoBent<float>(maps, MesoTechnique{}, o, -d, 0.0), Contains("must enter at the top"));
     CHECK_THROWS_WITH(marchMesoBent<float>(maps, MesoTechnique{}, o, d, std::nan("")), Contains("finite bend"));
     const MesoMaps noShadow = buildMesoMaps(mesoFunctionField("grating", 16, 8), mesoMapOptionsFor(MesoTechnique{}, false, ConeSet{4, 1, false, false}));
@@ -657,10 +665,7 @@ TEST_CASE("relief mapping and POM along a bent ray find its first crossing of th
     for (const MesoMethod method : {MesoMethod::Relief, MesoMethod::Pom}) {
         MesoTechnique tq;
         tq.method = method;
-        const MesoHit a = marchMesoBent<float>(maps, tq, o, d, 0.0), b = marchMeso<float>(maps, tq, o, d);
-        CHECK((a.hit == b.hit && a.t == b.t && a.iterations == b.iterations));
-        const MesoHit c = marchMesoBent<double>(maps, tq, o, d, 0.0), e = marchMeso<double>(maps, tq, o, d);
-        CHECK((c.hit == e.hit && c.t == e.t && c.iterations == e.iterations));
+        checkUnbentIsStraight(maps, tq, o, d);
         // Bad rays: off the top, upward, a bend that is not finite, no linear step.
         CHECK_THROWS_WITH(marchMesoBent<float>(maps, tq, o - glm::dvec3(0, 0, 1), d, 0.01), Contains("must enter at the top"));
         CHECK_THROWS_WITH(marchMesoBent<float>(maps, tq, o, -d, 0.01), Contains("view rays go down"));
@@ -737,10 +742,7 @@ TEST_CASE("the distance map along a bent ray converges on the bent ray's crossin
         dm.method = MesoMethod::DistanceMap;
         dm.iterations = 32;
         dm.eps = eps;
-        const MesoHit a = marchMesoBent<float>(grating, dm, o, d, 0.0), b = marchMeso<float>(grating, dm, o, d);
-        CHECK((a.hit == b.hit && a.t == b.t && a.iterations == b.iterations));
-        const MesoHit c = marchMesoBent<double>(grating, dm, o, d, 0.0), e = marchMeso<double>(grating, dm, o, d);
-        CHECK((c.hit == e.hit && c.t == e.t && c.iterations == e.iterations));
+        checkUnbentIsStraight(grating, dm, o, d);
     }
     CHECK_THROWS_WITH(marchMesoBent<float>(grating, tq, o - glm::dvec3(0, 0, 1), d, 0.01), Contains("must enter at the top"));
     CHECK_THROWS_WITH(marchMesoBent<float>(grating, tq, o, -d, 0.01), Contains("must enter at the top"));

@@ -728,14 +728,18 @@ MesoSolid fourBeads() {
     // The tile: [0, 16]^2 in the mesh's units, the floor at z = 0.
     return mesoSolidFromMesh(v, t, 16, 16, 16, MesoSolidTile{{0, 0, 0}, 16.0});
 }
+// Their maps: 4 x 1 view cones (and shadow cones, which rays bent back up need), no distance map.
+MesoMaps fourBeadMaps(const MesoSolid& s, bool shadowCones = true) {
+    MesoMapOptions opt;
+    opt.cones = ConeSet{4, 1, shadowCones, false};
+    opt.distance = false;
+    return buildMesoSolidMaps(s, opt);
+}
 } // namespace
 
 TEST_CASE("the solid's march in float (the GPU's) finds the double reference's triangles", "[meso][solid]") {
     const MesoSolid s = fourBeads();
-    MesoMapOptions opt;
-    opt.cones = ConeSet{4, 1, true, false};
-    opt.distance = false;
-    const MesoMaps maps = buildMesoSolidMaps(s, opt);
+    const MesoMaps maps = fourBeadMaps(s);
     REQUIRE(maps.isSolid());
     std::mt19937 rng(7);
     std::uniform_real_distribution<double> U(0.0, 1.0);
@@ -794,10 +798,7 @@ TEST_CASE("a bent ray's solid march finds the first crossing of its chords with 
     // chord of a ray that reaches the floor goes on straight): its first crossing is the hit, a
     // chord that leaves through the top or a ray bent back up to the top is a miss.
     const MesoSolid s = fourBeads();
-    MesoMapOptions opt;
-    opt.cones = ConeSet{4, 1, true, false};
-    opt.distance = false;
-    const MesoMaps maps = buildMesoSolidMaps(s, opt);
+    const MesoMaps maps = fourBeadMaps(s);
     MesoTechnique tq;
     tq.iterations = 1024;
     const double L = s.layers, chordError = kMesoChordError;
@@ -884,8 +885,7 @@ TEST_CASE("a bent ray's solid march finds the first crossing of its chords with 
     CHECK_THROWS_WITH(marchDdmSolidBent<float>(CompressedDdmView{&maps.ddm}, maps.ddm.cones, s, o - glm::dvec3(0, 0, 1), d, 0.01),
                       Catch::Contains("must enter at the top"));
     CHECK_THROWS_WITH(marchDdmSolidBent<float>(CompressedDdmView{&maps.ddm}, maps.ddm.cones, s, o, d, std::nan("")), Catch::Contains("finite bend"));
-    opt.cones = ConeSet{4, 1, false, false};
-    const MesoMaps viewOnly = buildMesoSolidMaps(s, opt);
+    const MesoMaps viewOnly = fourBeadMaps(s, false);
     CHECK_THROWS_WITH(marchMesoBent<float>(viewOnly, tq, o, d, -0.01), Catch::Contains("needs shadow cones"));
     MesoTechnique relief;
     relief.method = MesoMethod::Relief;

@@ -389,15 +389,17 @@ DM_TFUNC real dmTrilerp(rvec4 lo, rvec4 hi, rvec3 f) {
 // On a ball or a cylinder F is a function of the depth D below the top alone, F = D + c D^2 / 2
 // (so D = 2 F / (1 + sqrt(1 + 2 c F))), exactly at every depth; elsewhere it is the model. The
 // ray's point in the slab is then P(t) = (o.x + d.x t, o.y + d.y t, L - D(F(t))): with c = 0
-// the parabola o + t d - bend t^2 z, to the bit; bend 0 is the straight ray (the marchers take
-// it straight whatever c is). t is the straight world ray's parameter, d unit and going down.
+// the parabola o + t d - bend t^2 z, to the bit; bend 0 is the straight ray o + t d, whatever c
+// is (and costs no more). t is the straight world ray's parameter, d unit and going down.
 DM_TFUNC rvec3 dmBentPoint(rvec3 o, rvec3 d, real bend, real curve, real t) {
-    rvec3 p = o + d * t - rvec3(real(0), real(0), bend * (t * t));
-    // F - D(F) = 2 c F^2 / (1 + sqrt(1 + 2 c F))^2: no cancellation, 0 for c = 0 or bend 0.
-    real c = bend == real(0) ? real(0) : curve;
+    rvec3 p = o + d * t;
+    if (bend == real(0)) {
+        return p;
+    }
+    // F - D(F) = 2 c F^2 / (1 + sqrt(1 + 2 c F))^2: no cancellation, 0 for c = 0.
     real f = bend * (t * t) - d.z * t;
-    real q = real(1) + sqrt(max(real(1) + real(2) * c * f, real(0)));
-    return rvec3(p.x, p.y, p.z + (real(2) * c * (f * f)) / (q * q));
+    real q = real(1) + sqrt(max(real(1) + real(2) * curve * f, real(0)));
+    return rvec3(p.x, p.y, (p.z - bend * (t * t)) + (real(2) * curve * (f * f)) / (q * q));
 }
 
 // The direction of that curve at t (not unit): (d.x, d.y, -D'(F) F'(t)), F' = 2 bend t - d.z,
@@ -430,14 +432,14 @@ DM_TFUNC real dmBentFloor(rvec3 o, rvec3 d, real bend, real curve, real none) {
 }
 
 // One sphere-tracing step (Hart 1996; Donnelly §8.3) with the interpolated distance `dist`
-// at the point of parameter t on the curve dmBentPoint(o, d, bend, curve, t) (bend 0: the
-// straight ray): returns 1 when converged (dist <= eps; a fixed iteration count passes eps <
+// at the point p of parameter t on the curve dmBentPoint(o, d, bend, curve, t) (bend 0: the
+// straight ray), moving both on: returns 1 when converged (dist <= eps; a fixed iteration count passes eps <
 // 0), 2 when the step leaves through the top (a miss), 0 to go on. For bend 0 the step is the
 // distance itself; a bent ray's point moves at |(d_h, D' F')| <= sqrt(|d_h|^2 + V(tau)^2) per
 // unit of tau, V = D'max (|d.z| + 2 |bend| tau) (dmBentDepthRate), so a step dt moves it by at
 // most dt sqrt(|d_h|^2 + V(t)^2) + D'max |bend| dt^2, which the root of that = dist keeps within
 // the distance read. A step below the bottom plane stops on it (1): the solid fills z < 0.
-DM_TFUNC int dmSphereTraceStep(DM_INOUT(real) t, real dist, real eps, rvec3 o, rvec3 d, real bend, real curve, int L) {
+DM_TFUNC int dmSphereTraceStep(DM_INOUT(real) t, DM_INOUT(rvec3) p, real dist, real eps, rvec3 o, rvec3 d, real bend, real curve, int L) {
     if (dist <= eps) {
         return 1;
     }
@@ -451,12 +453,13 @@ DM_TFUNC int dmSphereTraceStep(DM_INOUT(real) t, real dist, real eps, rvec3 o, r
         real s = sqrt(d.x * d.x + d.y * d.y + v * v);
         t = t + (real(2) * r) / (s + sqrt(s * s + real(4) * a * r));
     }
-    real z = bend == real(0) ? o.z + t * d.z : dmBentPoint(o, d, bend, curve, t).z;
-    if (z > real(L)) {
+    p = dmBentPoint(o, d, bend, curve, t);
+    if (p.z > real(L)) {
         return 2;
     }
-    if (z < real(0)) {
+    if (p.z < real(0)) {
         t = dmBentFloor(o, d, bend, curve, t); // (a convex curve rounded just below the floor may have no root: stay)
+        p = dmBentPoint(o, d, bend, curve, t);
         return 1;
     }
     return 0;
@@ -960,17 +963,19 @@ DM_TFUNC real dmTrilerp(rvec4 lo, rvec4 hi, rvec3 f) {
 // On a ball or a cylinder F is a function of the depth D below the top alone, F = D + c D^2 / 2
 // (so D = 2 F / (1 + sqrt(1 + 2 c F))), exactly at every depth; elsewhere it is the model. The
 // ray's point in the slab is then P(t) = (o.x + d.x t, o.y + d.y t, L - D(F(t))): with c = 0
-// the parabola o + t d - bend t^2 z, to the bit; bend 0 is the straight ray (the marchers take
-// it straight whatever c is). t is the straight world ray's parameter, d unit and going down.
+// the parabola o + t d - bend t^2 z, to the bit; bend 0 is the straight ray o + t d, whatever c
+// is (and costs no more). t is the straight world ray's parameter, d unit and going down.
 DM_TFUNC rvec3 dmBentPoint(rvec3 o, rvec3 d, real bend, real curve, real t) {
-    rvec3 p = o + d * t - rvec3(real(0), real(0), bend * (t * t));
-    // F - D(F) = 2 c F^2 / (1 + sqrt(1 + 2 c F))^2: no cancellation, 0 for c = 0 or bend 0.
-    real c = bend == real(0) ? real(0) : curve;
+    rvec3 p = o + d * t;
+    if (bend == real(0)) {
+        return p;
+    }
+    // F - D(F) = 2 c F^2 / (1 + sqrt(1 + 2 c F))^2: no cancellation, 0 for c = 0.
     real f = bend * (t * t) - d.z * t;
-    real q = real(1) + sqrt(max(real(1) + real(2) * c * f, real(0)));
-    return rvec3(p.x, p.y, p.z + (real(2) * c * (f * f)) / (q * q));
+    real q = real(1) + sqrt(max(real(1) + real(2) * curve * f, real(0)));
+    return rvec3(p.x, p.y, (p.z - bend * (t * t)) + (real(2) * curve * (f * f)) / (q * q));
 }
-#line 417 "include/dispmap/kernels/meso.h"
+#line 419 "include/dispmap/kernels/meso.h"
 
 // The direction of that curve at t (not unit): (d.x, d.y, -D'(F) F'(t)), F' = 2 bend t - d.z,
 // D'(F) = 1 / sqrt(1 + 2 c F); d itself for bend 0.
@@ -981,14 +986,14 @@ DM_TFUNC rvec3 dmBentTangent(rvec3 d, real bend, real curve, real t) {
     real f = bend * (t * t) - d.z * t;
     return rvec3(d.x, d.y, -(real(2) * bend * t - d.z) / sqrt(max(real(1) + real(2) * curve * f, real(1e-30))));
 }
-#line 427 "include/dispmap/kernels/meso.h"
+#line 429 "include/dispmap/kernels/meso.h"
 
 // The largest rate D'(F) = 1 / sqrt(1 + 2 c F) of the depth along F (dmBentPoint) inside a slab
 // L deep: at its floor, 1 / (1 + c L) (1 for c = 0; 2 at the renderer's limit, c L = -1/2).
 DM_TFUNC real dmBentDepthRate(real curve, real L) {
     return real(1) / (real(1) + curve * L);
 }
-#line 433 "include/dispmap/kernels/meso.h"
+#line 435 "include/dispmap/kernels/meso.h"
 
 // Where that curve from o (o.z >= 0, d going down) meets the floor z = 0, D(F) = o.z: F =
 // o.z + c o.z^2 / 2, the smaller root 2 F / (sqrt(d.z^2 + 4 bend F) - d.z) of bend t^2 - d.z t
@@ -1002,17 +1007,17 @@ DM_TFUNC real dmBentFloor(rvec3 o, rvec3 d, real bend, real curve, real none) {
     real disc = d.z * d.z + real(4) * bend * f;
     return disc >= real(0) ? (real(2) * f) / (sqrt(disc) - d.z) : none;
 }
-#line 446 "include/dispmap/kernels/meso.h"
+#line 448 "include/dispmap/kernels/meso.h"
 
 // One sphere-tracing step (Hart 1996; Donnelly §8.3) with the interpolated distance `dist`
-// at the point of parameter t on the curve dmBentPoint(o, d, bend, curve, t) (bend 0: the
-// straight ray): returns 1 when converged (dist <= eps; a fixed iteration count passes eps <
+// at the point p of parameter t on the curve dmBentPoint(o, d, bend, curve, t) (bend 0: the
+// straight ray), moving both on: returns 1 when converged (dist <= eps; a fixed iteration count passes eps <
 // 0), 2 when the step leaves through the top (a miss), 0 to go on. For bend 0 the step is the
 // distance itself; a bent ray's point moves at |(d_h, D' F')| <= sqrt(|d_h|^2 + V(tau)^2) per
 // unit of tau, V = D'max (|d.z| + 2 |bend| tau) (dmBentDepthRate), so a step dt moves it by at
 // most dt sqrt(|d_h|^2 + V(t)^2) + D'max |bend| dt^2, which the root of that = dist keeps within
 // the distance read. A step below the bottom plane stops on it (1): the solid fills z < 0.
-DM_TFUNC int dmSphereTraceStep(DM_INOUT(real) t, real dist, real eps, rvec3 o, rvec3 d, real bend, real curve, int L) {
+DM_TFUNC int dmSphereTraceStep(DM_INOUT(real) t, DM_INOUT(rvec3) p, real dist, real eps, rvec3 o, rvec3 d, real bend, real curve, int L) {
     if (dist <= eps) {
         return 1;
     }
@@ -1026,17 +1031,18 @@ DM_TFUNC int dmSphereTraceStep(DM_INOUT(real) t, real dist, real eps, rvec3 o, r
         real s = sqrt(d.x * d.x + d.y * d.y + v * v);
         t = t + (real(2) * r) / (s + sqrt(s * s + real(4) * a * r));
     }
-    real z = bend == real(0) ? o.z + t * d.z : dmBentPoint(o, d, bend, curve, t).z;
-    if (z > real(L)) {
+    p = dmBentPoint(o, d, bend, curve, t);
+    if (p.z > real(L)) {
         return 2;
     }
-    if (z < real(0)) {
+    if (p.z < real(0)) {
         t = dmBentFloor(o, d, bend, curve, t); // (a convex curve rounded just below the floor may have no root: stay)
+        p = dmBentPoint(o, d, bend, curve, t);
         return 1;
     }
     return 0;
 }
-#line 479 "include/dispmap/kernels/meso.h"
+#line 482 "include/dispmap/kernels/meso.h"
 
 // --- Conservative (directional) distance maps -----------------------------------------------
 // One step of Algorithm 3.1 for a ray at o + t d in voxel v (inside the slab). `dist` is v's
@@ -1072,7 +1078,7 @@ DM_TFUNC int dmDdmStep(DM_INOUT(real) t, DM_INOUT(ivec3) v, real dist, rvec4 qa,
     v = w;
     return 0;
 }
-#line 514 "include/dispmap/kernels/meso.h"
+#line 517 "include/dispmap/kernels/meso.h"
 
 // --- Relief mapping and parallax occlusion mapping (height-field baselines) ----------------
 // Texel cell of xy (unwrapped) and the bilinear fraction inside it.
@@ -1081,13 +1087,13 @@ DM_TFUNC ivec2 dmHeightCell(rvec2 xy, DM_OUT(rvec2) f) {
     f = xy - b;
     return ivec2(int(b.x), int(b.y));
 }
-#line 522 "include/dispmap/kernels/meso.h"
+#line 525 "include/dispmap/kernels/meso.h"
 
 // Height of p above the surface, given the heights h of its cell (dmBilerp's order) and f.
 DM_TFUNC real dmHeightAbove(rvec3 p, rvec4 h, rvec2 f) {
     return p.z - dmBilerp(h, f);
 }
-#line 527 "include/dispmap/kernels/meso.h"
+#line 530 "include/dispmap/kernels/meso.h"
 
 // Linear search of relief mapping and POM: the bracket (t_prev, t) advances by dt while the
 // sample at t is above the surface; returns true when `above` (at bracket.y) is <= 0.
@@ -1098,7 +1104,7 @@ DM_TFUNC bool dmLinearSearchStep(DM_INOUT(rvec2) bracket, real dt, real above) {
     bracket = rvec2(bracket.y, bracket.y + dt);
     return false;
 }
-#line 537 "include/dispmap/kernels/meso.h"
+#line 540 "include/dispmap/kernels/meso.h"
 
 // Relief mapping's binary search: given `above` at the bracket's midpoint, keep the half
 // that still contains the crossing (the first end above, the second at or below).
@@ -1106,7 +1112,7 @@ DM_TFUNC rvec2 dmBisectStep(rvec2 bracket, real above) {
     real mid = real(0.5) * (bracket.x + bracket.y);
     return above <= real(0) ? rvec2(bracket.x, mid) : rvec2(mid, bracket.y);
 }
-#line 544 "include/dispmap/kernels/meso.h"
+#line 547 "include/dispmap/kernels/meso.h"
 
 // POM's final step (Tatarchuk 2006): where the segment between the last sample above
 // (height aboveA > 0 at bracket.x) and the first below (aboveB <= 0 at bracket.y) crosses.

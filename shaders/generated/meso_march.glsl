@@ -45,8 +45,7 @@ DM_TFUNC bool dmMesoMarchDistanceBent(DmMesoMaps m, rvec3 o, rvec3 d, real bend,
                          real(dmMesoFetchDistance(m, c.x + 1, c.y + 1, c.z + 1)),
                          real(dmMesoFetchDistance(m, c.x, c.y + 1, c.z + 1)));
         count = count + 1;
-        status = dmSphereTraceStep(t, dmTrilerp(lo, hi, f), eps, o, d, bend, curve, m.layers);
-        p = dmBentPoint(o, d, bend, curve, t);
+        status = dmSphereTraceStep(t, p, dmTrilerp(lo, hi, f), eps, o, d, bend, curve, m.layers);
     }
     tHit = t;
     pHit = p;

@@ -404,15 +404,17 @@ DM_TFUNC real dmTrilerp(rvec4 lo, rvec4 hi, rvec3 f) {
 // On a ball or a cylinder F is a function of the depth D below the top alone, F = D + c D^2 / 2
 // (so D = 2 F / (1 + sqrt(1 + 2 c F))), exactly at every depth; elsewhere it is the model. The
 // ray's point in the slab is then P(t) = (o.x + d.x t, o.y + d.y t, L - D(F(t))): with c = 0
-// the parabola o + t d - bend t^2 z, to the bit; bend 0 is the straight ray (the marchers take
-// it straight whatever c is). t is the straight world ray's parameter, d unit and going down.
+// the parabola o + t d - bend t^2 z, to the bit; bend 0 is the straight ray o + t d, whatever c
+// is (and costs no more). t is the straight world ray's parameter, d unit and going down.
 DM_TFUNC rvec3 dmBentPoint(rvec3 o, rvec3 d, real bend, real curve, real t) {
-    rvec3 p = o + d * t - rvec3(real(0), real(0), bend * (t * t));
-    // F - D(F) = 2 c F^2 / (1 + sqrt(1 + 2 c F))^2: no cancellation, 0 for c = 0 or bend 0.
-    real c = bend == real(0) ? real(0) : curve;
+    rvec3 p = o + d * t;
+    if (bend == real(0)) {
+        return p;
+    }
+    // F - D(F) = 2 c F^2 / (1 + sqrt(1 + 2 c F))^2: no cancellation, 0 for c = 0.
     real f = bend * (t * t) - d.z * t;
-    real q = real(1) + sqrt(max(real(1) + real(2) * c * f, real(0)));
-    return rvec3(p.x, p.y, p.z + (real(2) * c * (f * f)) / (q * q));
+    real q = real(1) + sqrt(max(real(1) + real(2) * curve * f, real(0)));
+    return rvec3(p.x, p.y, (p.z - bend * (t * t)) + (real(2) * curve * (f * f)) / (q * q));
 }
 
 // The direction of that curve at t (not unit): (d.x, d.y, -D'(F) F'(t)), F' = 2 bend t - d.z,
@@ -445,14 +447,14 @@ DM_TFUNC real dmBentFloor(rvec3 o, rvec3 d, real bend, real curve, real none) {
 }
 
 // One sphere-tracing step (Hart 1996; Donnelly §8.3) with the interpolated distance `dist`
-// at the point of parameter t on the curve dmBentPoint(o, d, bend, curve, t) (bend 0: the
-// straight ray): returns 1 when converged (dist <= eps; a fixed iteration count passes eps <
+// at the point p of parameter t on the curve dmBentPoint(o, d, bend, curve, t) (bend 0: the
+// straight ray), moving both on: returns 1 when converged (dist <= eps; a fixed iteration count passes eps <
 // 0), 2 when the step leaves through the top (a miss), 0 to go on. For bend 0 the step is the
 // distance itself; a bent ray's point moves at |(d_h, D' F')| <= sqrt(|d_h|^2 + V(tau)^2) per
 // unit of tau, V = D'max (|d.z| + 2 |bend| tau) (dmBentDepthRate), so a step dt moves it by at
 // most dt sqrt(|d_h|^2 + V(t)^2) + D'max |bend| dt^2, which the root of that = dist keeps within
 // the distance read. A step below the bottom plane stops on it (1): the solid fills z < 0.
-DM_TFUNC int dmSphereTraceStep(DM_INOUT(real) t, real dist, real eps, rvec3 o, rvec3 d, real bend, real curve, int L) {
+DM_TFUNC int dmSphereTraceStep(DM_INOUT(real) t, DM_INOUT(rvec3) p, real dist, real eps, rvec3 o, rvec3 d, real bend, real curve, int L) {
     if (dist <= eps) {
         return 1;
     }
@@ -466,12 +468,13 @@ DM_TFUNC int dmSphereTraceStep(DM_INOUT(real) t, real dist, real eps, rvec3 o, r
         real s = sqrt(d.x * d.x + d.y * d.y + v * v);
         t = t + (real(2) * r) / (s + sqrt(s * s + real(4) * a * r));
     }
-    real z = bend == real(0) ? o.z + t * d.z : dmBentPoint(o, d, bend, curve, t).z;
-    if (z > real(L)) {
+    p = dmBentPoint(o, d, bend, curve, t);
+    if (p.z > real(L)) {
         return 2;
     }
-    if (z < real(0)) {
+    if (p.z < real(0)) {
         t = dmBentFloor(o, d, bend, curve, t); // (a convex curve rounded just below the floor may have no root: stay)
+        p = dmBentPoint(o, d, bend, curve, t);
         return 1;
     }
     return 0;

@@ -188,9 +188,11 @@ struct MesoBend {
 };
 
 namespace detail {
-// A bend the bent marchers take (`who` names the caller), in a slab `layers` deep.
-inline void checkBend(const MesoBend& b, int layers, const char* who) {
-    if (!std::isfinite(b.bend)) throw ArgumentError(std::string(who) + ": the ray must enter at the top (z = layers) going down, with a finite bend");
+// A bent view ray the bent marchers take (`who` names the caller), in a slab `layers` deep: it
+// enters at the top going down, with a finite bend and a curve in range.
+inline void checkBentRay(const glm::dvec3& o, const glm::dvec3& d, const MesoBend& b, int layers, const char* who) {
+    if (!(o.z == layers) || !(d.z < 0) || !std::isfinite(b.bend))
+        throw ArgumentError(std::string(who) + ": the ray must enter at the top (z = layers) going down, with a finite bend");
     if (!(b.curve <= 0 && b.curve * layers > -1))
         throw ArgumentError(std::string(who) + ": the bend's curve must be <= 0 and above -1 / layers (kern::dmShellLimit keeps it above -1/2)");
 }
@@ -207,9 +209,7 @@ MesoHit marchDistanceMapBent(const DistanceMap& m, const glm::dvec3& o0, const g
                              glm::dvec3* slabPoint = nullptr) {
     detail::checkRay(o0, d0, "marchDistanceMapBent");
     detail::checkDistanceMap(m, "marchDistanceMapBent");
-    if (!(o0.z == m.layers) || !(d0.z < 0))
-        throw ArgumentError("marchDistanceMapBent: the ray must enter at the top (z = layers) going down, with a finite bend");
-    detail::checkBend(bend, m.layers, "marchDistanceMapBent");
+    detail::checkBentRay(o0, d0, bend, m.layers, "marchDistanceMapBent");
     kern::DmMesoMapsT<real> maps;
     maps.layers = m.layers;
     maps.distance = &m;
@@ -283,9 +283,7 @@ MesoHit marchDdmBent(const Map& map, const ConeSet& cones, int layers, const Col
     if (!cones.isotropic && !cones.shadow)
         throw ArgumentError("marchDdmBent: a ray bent back up marches upward chords: the map needs shadow cones (or to be isotropic)");
     const kern::DmMesoMapsT<real> maps = detail::ddmMaps<real>(map, layers, quadrics, o0, d0, opt, "marchDdmBent");
-    if (!(o0.z == layers) || !(d0.z < 0))
-        throw ArgumentError("marchDdmBent: the ray must enter at the top (z = layers) going down, with a finite bend");
-    detail::checkBend(bend, layers, "marchDdmBent");
+    detail::checkBentRay(o0, d0, bend, layers, "marchDdmBent");
     MesoHit r;
     real t = 0;
     glm::vec<3, real> p;
@@ -352,9 +350,7 @@ template <class real>
 MesoHit marchHeightSearchBent(const MesoHeightField& hf, const glm::dvec3& o0, const glm::dvec3& d0, MesoBend bend, int linear, int binary,
                               glm::dvec3* slabPoint = nullptr) {
     detail::checkHeightSearch(o0, d0, linear, "marchHeightSearchBent");
-    if (!(o0.z == hf.layers))
-        throw ArgumentError("marchHeightSearchBent: the ray must enter at the top (z = layers), with a finite bend");
-    detail::checkBend(bend, hf.layers, "marchHeightSearchBent");
+    detail::checkBentRay(o0, d0, bend, hf.layers, "marchHeightSearchBent");
     kern::DmMesoMapsT<real> maps;
     maps.layers = hf.layers;
     maps.field = &hf;
@@ -461,9 +457,7 @@ template <class real = double, class Map>
 MesoSolidHit marchDdmSolidBent(const Map& map, const ConeSet& cones, const MesoSolid& s, const glm::dvec3& o, const glm::dvec3& d, MesoBend bend,
                                int maxIterations = 1024, int exitRule = 1, glm::dvec3* slabPoint = nullptr) {
     const kern::DmMesoMapsT<real> maps = detail::solidMaps<real>(map, cones, s, o, d, true, "marchDdmSolidBent");
-    if (!(o.z == s.layers) || !(d.z < 0))
-        throw ArgumentError("marchDdmSolidBent: the ray must enter at the top (z = layers) going down, with a finite bend");
-    detail::checkBend(bend, s.layers, "marchDdmSolidBent");
+    detail::checkBentRay(o, d, bend, s.layers, "marchDdmSolidBent");
     MesoSolidHit r;
     real t = 0;
     glm::vec<3, real> p;
